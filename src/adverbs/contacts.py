@@ -1,0 +1,180 @@
+"""Foot contacts found in the motion, and examples cut out of long captures at heel strikes.
+
+A foot is planted while its heel (ankle) or toe is both low — within ``height`` of that point's
+own lowest level in the clip, so a floor that is not at y = 0 does not matter — and slow — moving
+horizontally slower than ``speed``. Gaps shorter than ``max_gap`` are closed and flickers shorter
+than ``min_duration`` dropped. A heel strike is the first frame of a contact; a step runs from one
+heel strike to the next one of the other foot.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .clip import Clip
+from .errors import AdverbsError
+from .fk import end_site_positions
+from .skeleton import Foot
+
+
+@dataclass(frozen=True, eq=False)
+class Contacts:
+    """Per-foot contact masks of one clip.
+
+    Attributes
+    ----------
+    feet : tuple of Foot, (N,)
+    planted : (F, N) bool
+        True where the foot is on the ground.
+    fps : float
+    """
+
+    feet: tuple[Foot, ...]
+    planted: np.ndarray
+    fps: float
+
+    def foot_index(self, foot: str | int) -> int:
+        if isinstance(foot, int):
+            if not 0 <= foot < len(self.feet):
+                raise AdverbsError(f"foot index {foot} out of range: there are {len(self.feet)} feet")
+            return foot
+        for i, f in enumerate(self.feet):
+            if f.side == foot:
+                return i
+        raise AdverbsError(f"no {foot!r} foot; feet are {', '.join(f.side for f in self.feet) or 'none'}")
+
+    def intervals(self, foot: str | int) -> list[tuple[int, int]]:
+        """Contact intervals ``[start, stop)`` in frames of one foot."""
+        return _runs(self.planted[:, self.foot_index(foot)])
+
+    def strikes(self, foot: str | int) -> np.ndarray:
+        """Frames of the foot's heel strikes (contacts that begin inside the clip)."""
+        return np.array([a for a, _ in self.intervals(foot) if a > 0], dtype=int)
+
+    def steps(self) -> list[tuple[int, int]]:
+        """Every heel strike as ``(frame, foot index)``, in time order."""
+        out = [(int(fr), i) for i in range(len(self.feet)) for fr in self.strikes(i)]
+        return sorted(out)
+
+    def to_dict(self) -> dict:
+        """Plain data for JSON: per foot its joints and contact intervals in frames and seconds."""
+        return {
+            f.side: {
+                "ankle": int(f.ankle),
+                "toe": None if f.toe is None else int(f.toe),
+                "contacts": [[a, b] for a, b in self.intervals(i)],
+                "heel_strikes_s": [round(float(s) / self.fps, 4) for s in self.strikes(i)],
+            }
+            for i, f in enumerate(self.feet)
+        }
+
+
+def foot_points(clip: Clip, feet: list[Foot] | tuple[Foot, ...]) -> np.ndarray:
+    """Global heel and toe positions ``(F, N, 2, 3)`` of each foot (toe: joint, End Site, or the heel)."""
+    gpos, grot = clip.forward_kinematics()
+    out = np.empty((clip.num_frames, len(feet), 2, 3))
+    for i, f in enumerate(feet):
+        out[:, i, 0] = gpos[:, f.ankle]
+        if f.toe is not None:
+            out[:, i, 1] = gpos[:, f.toe]
+        elif f.toe_end_site is not None:
+            out[:, i, 1] = end_site_positions(gpos, grot, np.array([f.ankle]), f.toe_end_site[None])[:, 0]
+        else:
+            out[:, i, 1] = gpos[:, f.ankle]
+    return out
+
+
+def find_contacts(
+    clip: Clip,
+    feet: list[Foot] | None = None,
+    height: float = 0.06,
+    speed: float = 0.6,
+    min_duration: float = 0.05,
+    max_gap: float = 0.07,
+) -> Contacts:
+    """Find when each foot is planted; see the module docstring for the rule.
+
+    Parameters
+    ----------
+    feet : the feet to look at; found from joint names when omitted.
+    height : metres above the point's lowest level (5th percentile) that still count as low.
+    speed : horizontal speed in m/s below which a point counts as still.
+    min_duration, max_gap : seconds, for cleaning the masks.
+    """
+    feet = list(clip.skeleton.feet() if feet is None else feet)
+    if not feet:
+        raise AdverbsError(
+            f"clip {clip.name!r}: no feet found from joint names; name them (ankle and toe joints) explicitly"
+        )
+    pts = foot_points(clip, feet)  # (F, N, 2, 3)
+    low = pts[..., 1] - np.percentile(pts[..., 1], 5, axis=0) < height
+    if clip.num_frames > 1:
+        vel = np.gradient(pts[..., [0, 2]], axis=0) * clip.fps
+        still = np.linalg.norm(vel, axis=-1) < speed
+    else:
+        still = np.ones(low.shape, dtype=bool)
+    planted = np.any(low & still, axis=-1)  # (F, N)
+    gap = int(round(max_gap * clip.fps))
+    shortest = max(int(round(min_duration * clip.fps)), 1)
+    for i in range(len(feet)):
+        planted[:, i] = _clean(planted[:, i], gap, shortest)
+    return Contacts(tuple(feet), planted, clip.fps)
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    return list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist()))
+
+
+def _clean(mask: np.ndarray, gap: int, shortest: int) -> np.ndarray:
+    mask = mask.copy()
+    runs = _runs(mask)
+    for (_, b), (c, _) in zip(runs[:-1], runs[1:]):
+        if c - b <= gap:
+            mask[b:c] = True
+    for a, b in _runs(mask):
+        if b - a < shortest:
+            mask[a:b] = False
+    return mask
+
+
+def cut_steps(
+    clip: Clip, foot: str = "left", k: int = 0, n: int = 2, contacts: Contacts | None = None
+) -> tuple[Clip, np.ndarray]:
+    """Cut an example from the ``k``-th heel strike (0-based) of ``foot``, ``n`` steps long.
+
+    Steps alternate feet, so ``n = 2`` is one gait cycle, ending at the foot's next heel strike.
+    Returns the clip (both end frames included) and its keytimes ``(n + 1,)`` in seconds: the heel
+    strikes, from 0 to the clip's duration.
+    """
+    if n < 1:
+        raise AdverbsError(f"n (steps) must be at least 1, got {n}")
+    if k < 0:
+        raise AdverbsError(f"k (heel strike) must be 0 or more, got {k}")
+    contacts = find_contacts(clip) if contacts is None else contacts
+    which = contacts.foot_index(foot)
+    steps = contacts.steps()
+    mine = [i for i, (_, f) in enumerate(steps) if f == which]
+    if k >= len(mine):
+        raise AdverbsError(
+            f"clip {clip.name!r}: asked for heel strike {k} of the {foot} foot, the clip has {len(mine)} "
+            f"(at frames {[steps[i][0] for i in mine]})"
+        )
+    first = mine[k]
+    if first + n >= len(steps):
+        raise AdverbsError(
+            f"clip {clip.name!r}: {n} steps from heel strike {k} of the {foot} foot (frame {steps[first][0]}) "
+            f"run past the clip's last heel strike (frame {steps[-1][0]})"
+        )
+    chosen = steps[first : first + n + 1]
+    for (fa, a), (fb, b) in zip(chosen[:-1], chosen[1:]):
+        if a == b:
+            raise AdverbsError(
+                f"clip {clip.name!r}: heel strikes at frames {fa} and {fb} are of the same foot; "
+                "the steps do not alternate there"
+            )
+    start, stop = chosen[0][0], chosen[-1][0]
+    keytimes = (np.array([fr for fr, _ in chosen], dtype=float) - start) / clip.fps
+    return clip.frames(start, stop + 1), keytimes

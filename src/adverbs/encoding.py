@@ -1,0 +1,306 @@
+"""DOF encodings: a clip as scalar curves ``(F, D)`` that can be interpolated, and back.
+
+Glossary of the columns, in order:
+
+| columns | meaning |
+| --- | --- |
+| ``root.vx``, ``root.vz`` | horizontal velocity of the body root in its own heading frame, m/s (x left, z forward) |
+| ``root.turn`` | heading rate about the vertical, rad/s (positive turns left, towards +x) |
+| ``root.y`` | height of the body root, m |
+| ``<body root>.*`` | body root orientation relative to its heading, 3 columns |
+| ``<joint>.*`` | each joint below the body root, 3 columns |
+| ``<joint>.tx/ty/tz`` | translation, only for joints whose position channels move (relative to the rest value) |
+
+Rotations are 3 columns each in one of two encodings:
+
+* ``"euler"`` — the paper's Euler channels (the joint's own BVH order), in radians, unwrapped along
+  time so no channel jumps by more than π between frames;
+* ``"logquat"`` — the rotation vector of ``ref⁻¹ q`` for a per-joint reference ``ref``, with ``q``
+  kept sign-consistent along time: continuous, and free of gimbal lock near the reference.
+
+The root is stored as velocities, so a decoded cycle can start from any position and heading and a
+cycle replayed after itself keeps going forward. The heading is the direction the hips face, taken
+from the line between the left and right hip joints, so it does not depend on how a rig orients its
+bones.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from . import quat
+from .clip import Clip
+from .errors import AdverbsError
+from .fk import forward_kinematics
+from .skeleton import Skeleton
+
+KINDS = ("euler", "logquat")
+ROOT_COLUMNS = ("root.vx", "root.vz", "root.turn", "root.y")
+_MOVING_TRANSLATION = 1e-7  # metres: position channels that vary more than this become DOFs
+
+
+def lateral_axis(skeleton: Skeleton, body_root: int) -> np.ndarray:
+    """Unit vector ``(3,)`` from the right hip to the left hip in the body root's frame.
+
+    Taken from the rest offsets of the nearest twin joints below the body root that stand apart;
+    skeletons without side names fall back to +X.
+    """
+    twin = skeleton.mirror_map()
+    rest = skeleton.rest_positions()
+    frontier = skeleton.children(body_root)
+    while frontier:
+        for j in frontier:
+            if twin[j] != j and skeleton.side(j) == "left":
+                d = rest[j] - rest[twin[j]]
+                if np.linalg.norm(d) > 1e-6:
+                    return d / np.linalg.norm(d)
+        frontier = [c for j in frontier for c in skeleton.children(j)]
+    return np.array([1.0, 0.0, 0.0])
+
+
+def heading(global_rotation: np.ndarray, lateral: np.ndarray) -> np.ndarray:
+    """Heading angles ``(...)`` in radians (0 faces +Z, positive towards +X) of body-root rotations ``(..., 4)``."""
+    left = quat.rotate(global_rotation, np.broadcast_to(lateral, global_rotation.shape[:-1] + (3,)))
+    # forward = left × up, in the horizontal plane.
+    return np.arctan2(-left[..., 2], left[..., 0])
+
+
+@dataclass(frozen=True, eq=False)
+class DofEncoding:
+    """A fitted DOF layout for one skeleton: use :meth:`fit`, then :meth:`encode` / :meth:`decode`.
+
+    Attributes
+    ----------
+    kind : "euler" or "logquat"
+    skeleton : Skeleton
+    body_root : int
+        The joint whose motion becomes the root columns (the hips); joints above it are folded in.
+    lateral : (3,)
+        Right-to-left hip direction in the body root's frame, for the heading.
+    reference : (J, 4)
+        Per-joint reference rotations (the body root's is relative to its heading).
+    base_translations : (J, 3)
+        Translations of joints that have no translation DOFs.
+    translated : (T,) int
+        Joints with translation columns.
+    names : tuple of str, (D,)
+    """
+
+    kind: str
+    skeleton: Skeleton
+    body_root: int
+    lateral: np.ndarray
+    reference: np.ndarray
+    base_translations: np.ndarray
+    translated: np.ndarray
+    names: tuple[str, ...]
+
+    @classmethod
+    def fit(cls, clips: Clip | Sequence[Clip], kind: str = "logquat", body_root: int | str | None = None) -> DofEncoding:
+        """Choose references and translation DOFs from ``clips`` (all on one skeleton).
+
+        The reference of each joint is the mean rotation over every frame of every clip, so the
+        log map is evaluated close to its centre.
+        """
+        clips = [clips] if isinstance(clips, Clip) else list(clips)
+        if kind not in KINDS:
+            raise AdverbsError(f"unknown DOF encoding {kind!r}; use one of {', '.join(KINDS)}")
+        if not clips:
+            raise AdverbsError("fit needs at least one clip")
+        skel = clips[0].skeleton
+        for c in clips[1:]:
+            if not c.skeleton.same_structure(skel):
+                raise AdverbsError(f"clip {c.name!r} is on a different skeleton from {clips[0].name!r}")
+        if body_root is None:
+            root = skel.body_root()
+        else:
+            root = skel.index(body_root) if isinstance(body_root, str) else int(body_root)
+        lateral = lateral_axis(skel, root)
+        below = _below(skel, root)
+
+        base = clips[0].translations[0].copy()
+        moving = np.zeros(skel.num_joints, dtype=bool)
+        for c in clips:
+            moving |= np.abs(c.translations - base).max(axis=(0, 2)) > _MOVING_TRANSLATION
+        moving &= below
+        moving[root] = False
+        translated = np.flatnonzero(moving)
+
+        reference = quat.identity((skel.num_joints,))
+        samples = []
+        for c in clips:
+            _, grot = c.forward_kinematics()
+            rel = quat.mul(quat.about_y(-heading(grot[:, root], lateral)), grot[:, root])
+            local = c.rotations.copy()
+            local[:, root] = rel
+            samples.append(local)
+        local = np.concatenate(samples)
+        if kind == "logquat":
+            for j in np.flatnonzero(below):
+                reference[j] = _mean_rotation(local[:, j])
+
+        names = list(ROOT_COLUMNS)
+        for j in np.flatnonzero(below):
+            axes = _axes(kind, skel, j)
+            names.extend(f"{skel.names[j]}.{a}" for a in axes)
+        for j in translated:
+            names.extend(f"{skel.names[j]}.{a}" for a in ("tx", "ty", "tz"))
+        return cls(kind, skel, root, lateral, reference, base, translated, tuple(names))
+
+    # ----- layout ----------------------------------------------------------------------------
+    @property
+    def num_dofs(self) -> int:
+        return len(self.names)
+
+    @property
+    def rotated(self) -> np.ndarray:
+        """Joints with rotation columns, body root first (then skeleton order)."""
+        return np.flatnonzero(_below(self.skeleton, self.body_root))
+
+    def _check(self, clip: Clip) -> None:
+        if not clip.skeleton.same_structure(self.skeleton):
+            raise AdverbsError(f"clip {clip.name!r} is not on the skeleton this encoding was fitted to")
+
+    # ----- encode ----------------------------------------------------------------------------
+    def start(self, clip: Clip) -> np.ndarray:
+        """Where ``clip`` starts: ``(x, z, heading)`` of the body root in its first frame."""
+        gpos, grot = clip.forward_kinematics()
+        h = heading(grot[0, self.body_root], self.lateral)
+        return np.array([gpos[0, self.body_root, 0], gpos[0, self.body_root, 2], h])
+
+    def encode(self, clip: Clip) -> np.ndarray:
+        """DOF curves ``(F, D)`` of ``clip``; see the module's glossary for the columns."""
+        self._check(clip)
+        gpos, grot = clip.forward_kinematics()
+        root = self.body_root
+        h = np.unwrap(heading(grot[:, root], self.lateral))
+        p = gpos[:, root]
+        f = clip.num_frames
+        out = np.empty((f, self.num_dofs))
+        if f > 1:
+            mid = 0.5 * (h[1:] + h[:-1])
+            step = quat.rotate(quat.about_y(-mid), p[1:] - p[:-1]) * clip.fps
+            vel = np.concatenate([step, step[-1:]])
+            turn = np.diff(h) * clip.fps
+            turn = np.concatenate([turn, turn[-1:]])
+        else:
+            vel = np.zeros((1, 3))
+            turn = np.zeros(1)
+        out[:, 0] = vel[:, 0]
+        out[:, 1] = vel[:, 2]
+        out[:, 2] = turn
+        out[:, 3] = p[:, 1]
+        local = clip.rotations.copy()
+        local[:, root] = quat.mul(quat.about_y(-h), grot[:, root])
+        rotated = self.rotated
+        out[:, 4 : 4 + 3 * len(rotated)] = self._rotations_to_dofs(local[:, rotated], rotated).reshape(f, -1)
+        if len(self.translated):
+            t = clip.translations[:, self.translated] - self.base_translations[self.translated]
+            out[:, 4 + 3 * len(rotated) :] = t.reshape(f, -1)
+        return out
+
+    def _rotations_to_dofs(self, q: np.ndarray, joints: np.ndarray) -> np.ndarray:
+        """(F, K, 4) → (F, K, 3) continuous along frames."""
+        ref = self.reference[joints]
+        if self.kind == "logquat":
+            rel = quat.mul(quat.inv(ref), q)
+            rel = rel * np.where(rel[:1, :, 3:] < 0.0, -1.0, 1.0)
+            return quat.log(quat.make_continuous(rel, axis=0))
+        out = np.empty(q.shape[:-1] + (3,))
+        for k, j in enumerate(joints):
+            order = _euler_order(self.skeleton, j)
+            e = quat.unwrap_euler(order, quat.to_euler(order, q[:, k]), axis=0)
+            # Start on the 2π branch nearest the reference, so every clip lands on the same one.
+            e0 = quat.to_euler(order, ref[k])
+            out[:, k] = e + 2.0 * np.pi * np.round((e0 - e[0]) / (2.0 * np.pi))
+        return out
+
+    # ----- decode ----------------------------------------------------------------------------
+    def decode(
+        self, dofs: np.ndarray, fps: float, start: np.ndarray | Sequence[float] = (0.0, 0.0, 0.0)
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Local rotations ``(..., F, J, 4)`` and translations ``(..., F, J, 3)`` from DOFs ``(..., F, D)``.
+
+        The root is integrated from its velocities starting at ``start = (x, z, heading)``
+        (broadcast over the leading axes): the inverse of :meth:`encode` given :meth:`start`.
+        """
+        dofs = np.asarray(dofs, dtype=float)
+        if dofs.shape[-1] != self.num_dofs or dofs.ndim < 2:
+            raise AdverbsError(f"dofs must be (..., F, {self.num_dofs}), got {dofs.shape}")
+        start = np.asarray(start, dtype=float)
+        lead, f = dofs.shape[:-2], dofs.shape[-2]
+        skel, root = self.skeleton, self.body_root
+        dt = 1.0 / fps
+        turn = dofs[..., 2]
+        h = start[..., 2, None] + np.concatenate([np.zeros(lead + (1,)), np.cumsum(turn[..., :-1] * dt, axis=-1)], axis=-1)
+        mid = 0.5 * (h[..., 1:] + h[..., :-1])
+        v = np.stack([dofs[..., :-1, 0], np.zeros(lead + (f - 1,)), dofs[..., :-1, 1]], axis=-1)
+        steps = quat.rotate(quat.about_y(mid), v) * dt
+        xz = np.concatenate([np.zeros(lead + (1, 3)), np.cumsum(steps, axis=-2)], axis=-2)
+        p = np.stack([start[..., 0, None] + xz[..., 0], dofs[..., 3], start[..., 1, None] + xz[..., 2]], axis=-1)
+
+        rotated = self.rotated
+        q = self._dofs_to_rotations(dofs[..., 4 : 4 + 3 * len(rotated)].reshape(lead + (f, len(rotated), 3)), rotated)
+        rotations = np.broadcast_to(quat.identity((skel.num_joints,)), lead + (f, skel.num_joints, 4)).copy()
+        rotations[..., rotated, :] = q
+        translations = np.broadcast_to(self.base_translations, lead + (f, skel.num_joints, 3)).copy()
+        if len(self.translated):
+            t = dofs[..., 4 + 3 * len(rotated) :].reshape(lead + (f, len(self.translated), 3))
+            translations[..., self.translated, :] = self.base_translations[self.translated] + t
+
+        # The body root's global transform, expressed below its (fixed) ancestors.
+        g_root = quat.mul(quat.about_y(h), rotations[..., root, :])
+        above = skel.ancestors(root)[1:]
+        if above:
+            apos, arot = forward_kinematics(skel.parents, quat.identity((skel.num_joints,)), self.base_translations)
+            parent = above[0]
+            inv_parent = quat.inv(arot[parent])
+            rotations[..., root, :] = quat.mul(inv_parent, g_root)
+            translations[..., root, :] = quat.rotate(inv_parent, p - apos[parent])
+        else:
+            rotations[..., root, :] = g_root
+            translations[..., root, :] = p
+        return rotations, translations
+
+    def decode_clip(self, dofs: np.ndarray, fps: float, start: Sequence[float] = (0.0, 0.0, 0.0), name: str = "") -> Clip:
+        """A :class:`Clip` from DOFs ``(F, D)``."""
+        rotations, translations = self.decode(dofs, fps, start)
+        return Clip(self.skeleton, rotations, translations, fps, name=name)
+
+    def _dofs_to_rotations(self, d: np.ndarray, joints: np.ndarray) -> np.ndarray:
+        if self.kind == "logquat":
+            return quat.mul(self.reference[joints], quat.exp(d))
+        out = np.empty(d.shape[:-1] + (4,))
+        for k, j in enumerate(joints):
+            out[..., k, :] = quat.from_euler(_euler_order(self.skeleton, j), d[..., k, :])
+        return out
+
+
+def _below(skel: Skeleton, root: int) -> np.ndarray:
+    """Mask of ``root`` and its descendants."""
+    mask = np.zeros(skel.num_joints, dtype=bool)
+    mask[root] = True
+    for j in range(root + 1, skel.num_joints):
+        mask[j] = mask[skel.parents[j]]
+    return mask
+
+
+def _euler_order(skel: Skeleton, joint: int) -> str:
+    order = skel.rotation_order(joint)
+    return order if len(order) == 3 else "ZXY"
+
+
+def _axes(kind: str, skel: Skeleton, joint: int) -> tuple[str, ...]:
+    if kind == "logquat":
+        return ("rx", "ry", "rz")
+    return tuple(_euler_order(skel, joint))
+
+
+def _mean_rotation(q: np.ndarray) -> np.ndarray:
+    """Mean rotation ``(4,)`` of ``(N, 4)`` (scipy's chordal mean), with w ≥ 0."""
+    mean = Rotation.from_quat(q).mean().as_quat()
+    return mean if mean[3] >= 0 else -mean

@@ -1,0 +1,172 @@
+"""Unit quaternions as arrays ``(..., 4)``, scalar-last ``(x, y, z, w)`` like scipy's ``Rotation``.
+
+Only the operations the hot paths need live here, vectorized over any leading axes; conversions to
+and from Euler angles go through ``scipy.spatial.transform.Rotation``.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+
+def identity(shape: tuple[int, ...] = ()) -> np.ndarray:
+    """Identity rotations ``shape + (4,)``."""
+    q = np.zeros(shape + (4,))
+    q[..., 3] = 1.0
+    return q
+
+
+def mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Hamilton product ``a b`` (apply ``b`` first, then ``a``), broadcasting ``(..., 4)``."""
+    ax, ay, az, aw = a[..., 0], a[..., 1], a[..., 2], a[..., 3]
+    bx, by, bz, bw = b[..., 0], b[..., 1], b[..., 2], b[..., 3]
+    return np.stack(
+        [
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+            aw * bw - ax * bx - ay * by - az * bz,
+        ],
+        axis=-1,
+    )
+
+
+def inv(q: np.ndarray) -> np.ndarray:
+    """Inverse of unit quaternions ``(..., 4)`` (the conjugate)."""
+    return q * np.array([-1.0, -1.0, -1.0, 1.0])
+
+
+def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Rotate vectors ``v (..., 3)`` by unit quaternions ``q (..., 4)``."""
+    u = q[..., :3]
+    t = 2.0 * np.cross(u, v)
+    return v + q[..., 3:] * t + np.cross(u, t)
+
+
+def about_y(angle: np.ndarray) -> np.ndarray:
+    """Rotations by ``angle (...)`` radians about the vertical Y axis, ``(..., 4)``."""
+    half = 0.5 * np.asarray(angle, dtype=float)
+    zero = np.zeros_like(half)
+    return np.stack([zero, np.sin(half), zero, np.cos(half)], axis=-1)
+
+
+def normalize(q: np.ndarray) -> np.ndarray:
+    """Scale ``(..., 4)`` to unit length."""
+    return q / np.linalg.norm(q, axis=-1, keepdims=True)
+
+
+def make_continuous(q: np.ndarray, axis: int = 0) -> np.ndarray:
+    """Flip signs along ``axis`` so consecutive quaternions have non-negative dot products.
+
+    ``q`` and ``-q`` are the same rotation; choosing the sign that stays close to the previous sample
+    makes a sequence smooth, which interpolation and the log map need.
+    """
+    q = np.moveaxis(np.asarray(q, dtype=float), axis, 0).copy()
+    if len(q) > 1:
+        dots = np.sum(q[1:] * q[:-1], axis=-1)
+        flips = np.cumprod(np.where(dots < 0.0, -1.0, 1.0), axis=0)
+        q[1:] *= flips[..., None]
+    return np.moveaxis(q, 0, axis)
+
+
+def log(q: np.ndarray) -> np.ndarray:
+    """Rotation vectors ``(..., 3)`` (angle times axis) of quaternions ``(..., 4)``.
+
+    Unlike ``Rotation.as_rotvec`` this keeps the quaternion's sign: ``w < 0`` gives an angle in
+    ``(π, 2π]``, so a sign-continuous quaternion sequence maps to a continuous curve.
+    """
+    v = q[..., :3]
+    s = np.linalg.norm(v, axis=-1)
+    angle = 2.0 * np.arctan2(s, q[..., 3])
+    # angle / s → 2 / w as s → 0; the series keeps full precision for tiny rotations.
+    small = s < 1e-8
+    scale = np.where(small, 2.0 / np.where(small, q[..., 3], 1.0), angle / np.where(small, 1.0, s))
+    return v * scale[..., None]
+
+
+def exp(r: np.ndarray) -> np.ndarray:
+    """Quaternions ``(..., 4)`` of rotation vectors ``(..., 3)``; inverse of :func:`log`."""
+    angle = np.linalg.norm(r, axis=-1)
+    half = 0.5 * angle
+    small = angle < 1e-8
+    # sin(θ/2)/θ → 1/2 − θ²/48 for small θ.
+    k = np.where(small, 0.5 - angle**2 / 48.0, np.sin(half) / np.where(small, 1.0, angle))
+    return np.concatenate([r * k[..., None], np.cos(half)[..., None]], axis=-1)
+
+
+def from_euler(order: str, angles: np.ndarray) -> np.ndarray:
+    """Quaternions ``(..., 4)`` from intrinsic Euler angles ``(..., len(order))`` in radians.
+
+    ``order`` is a string of axes such as ``"ZXY"``: the rotation is ``R_Z R_X R_Y``, which is how
+    BVH channel lists compose.
+    """
+    angles = np.asarray(angles, dtype=float)
+    shape = angles.shape[:-1]
+    flat = angles.reshape(-1, len(order))
+    if len(flat) == 0:
+        return identity(shape)
+    q = Rotation.from_euler(order.upper(), flat).as_quat()
+    return q.reshape(shape + (4,))
+
+
+def to_euler(order: str, q: np.ndarray) -> np.ndarray:
+    """Intrinsic Euler angles ``(..., 3)`` in radians of quaternions ``(..., 4)``, principal range."""
+    q = np.asarray(q, dtype=float)
+    shape = q.shape[:-1]
+    flat = q.reshape(-1, 4)
+    if len(flat) == 0:
+        return np.zeros(shape + (3,))
+    # Gimbal-lock warnings are expected on real data; the angles returned are still a valid solution.
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        e = Rotation.from_quat(flat).as_euler(order.upper())
+    return e.reshape(shape + (3,))
+
+
+def unwrap_euler(order: str, angles: np.ndarray, axis: int = 0) -> np.ndarray:
+    """Make Euler angle sequences ``(..., 3)`` continuous along ``axis``.
+
+    Every rotation has two Tait–Bryan solutions, ``(a, b, c)`` and ``(a + π, π − b, c + π)``, each
+    up to multiples of 2π. At each sample the one nearest the previous sample is chosen, so no
+    channel jumps by more than π between samples unless the motion itself does. The loop runs
+    over samples, vectorized over every other axis.
+    """
+    del order  # the equivalence holds for every Tait–Bryan order
+    a = np.moveaxis(np.asarray(angles, dtype=float), axis, 0).copy()
+    two_pi = 2.0 * np.pi
+    alt = np.stack([a[..., 0] + np.pi, np.pi - a[..., 1], a[..., 2] + np.pi], axis=-1)
+    for i in range(1, len(a)):
+        prev = a[i - 1]
+        best = None
+        best_cost = None
+        for cand in (a[i], alt[i]):
+            c = cand + two_pi * np.round((prev - cand) / two_pi)
+            cost = np.sum((c - prev) ** 2, axis=-1)
+            if best is None:
+                best, best_cost = c, cost
+            else:
+                take = cost < best_cost
+                best = np.where(take[..., None], c, best)
+                best_cost = np.where(take, cost, best_cost)
+        a[i] = best
+    return np.moveaxis(a, 0, axis)
+
+
+def slerp_frames(q: np.ndarray, positions: np.ndarray) -> np.ndarray:
+    """Spherical interpolation of a sampled sequence ``q (F, ..., 4)`` at fractional frame indices.
+
+    ``positions (G,)`` are in frames, clipped to ``[0, F − 1]``; returns ``(G, ..., 4)``.
+    """
+    q = make_continuous(q, axis=0)
+    f = len(q)
+    x = np.clip(np.asarray(positions, dtype=float), 0.0, f - 1.0)
+    i0 = np.minimum(np.floor(x).astype(int), max(f - 2, 0))
+    i1 = np.minimum(i0 + 1, f - 1)
+    u = (x - i0).reshape((-1,) + (1,) * (q.ndim - 1))
+    a, b = q[i0], q[i1]
+    # a⁻¹b as a rotation vector, scaled by u, applied to a: the geodesic from a to b.
+    step = exp(log(mul(inv(a), b)) * u)
+    return normalize(mul(a, step))
