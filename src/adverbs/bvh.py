@@ -17,7 +17,6 @@ import numpy as np
 from . import quat
 from .clip import Clip
 from .errors import AdverbsError, BVHError
-from .fk import forward_kinematics
 from .skeleton import POSITION_CHANNELS, ROTATION_CHANNELS, Skeleton
 
 UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254, "ft": 0.3048}
@@ -47,7 +46,9 @@ def parse_bvh(text: str, units: str | float = "auto", source: str | Path | None 
     lines = text.splitlines()
     parser = _HierarchyParser(lines, source)
     names, parents, offsets, channels, sites, motion_line = parser.parse()
-    frame_count, frame_time, time_text, values = _parse_motion(lines, motion_line, sum(len(c) for c in channels), source)
+    frame_count, frame_time, time_text, values = _parse_motion(
+        lines, motion_line, sum(len(c) for c in channels), source
+    )
     if frame_count < 1:
         raise BVHError("the file has no frames (Frames: 0)", source, motion_line + 2)
 
@@ -189,7 +190,9 @@ class _HierarchyParser:
         seen_offset = False
         while True:
             if self.pos >= len(self.tokens):
-                raise self.error(f"unbalanced braces: joint {name!r} opened at line {line} is never closed", self.last_line)
+                raise self.error(
+                    f"unbalanced braces: joint {name!r} opened at line {line} is never closed", self.last_line
+                )
             tok, tline = self.next("a joint's contents")
             key = tok.upper()
             if key == "}":
@@ -269,7 +272,8 @@ def _parse_motion(
                 kind = "truncated motion: " if n == len(lines) - 1 and len(words) < num_channels else ""
                 raise BVHError(
                     f"{kind}frame {len(rows) + 1} has {len(words)} values, the hierarchy has {num_channels} channels",
-                    source, n + 1,
+                    source,
+                    n + 1,
                 )
             rows.append(n + 1)
             numbers.append(words)
@@ -277,10 +281,13 @@ def _parse_motion(
         if len(rows) < frame_count:
             raise BVHError(
                 f"truncated motion: 'Frames: {frame_count}' but the file ends after {len(rows)} frames",
-                source, len(lines),
+                source,
+                len(lines),
             )
         raise BVHError(
-            f"'Frames: {frame_count}' (line {frames_line}) but frame {frame_count + 1} follows", source, rows[frame_count]
+            f"'Frames: {frame_count}' (line {frames_line}) but frame {frame_count + 1} follows",
+            source,
+            rows[frame_count],
         )
     try:
         values = np.array(list(itertools.chain.from_iterable(numbers)), dtype=float)
@@ -327,6 +334,7 @@ def _channels_to_arrays(
 
 
 # ----- writing -------------------------------------------------------------------------------
+
 
 def write_bvh(clip: Clip, path: str | Path, precision: int = 9) -> None:
     """Write ``clip`` as BVH in its skeleton's channels and unit, ``precision`` significant digits."""
@@ -389,6 +397,6 @@ def _euler_for_channels(q: np.ndarray, order: str, name: str) -> np.ndarray:
     """Unwrapped Euler angles ``(F, len(order))`` in radians; joints with fewer than 3 axes must not need more."""
     full = order + "".join(a for a in "XYZ" if a not in order)
     angles = quat.unwrap_euler(full, quat.to_euler(full, q), axis=0)
-    if len(order) < 3 and np.abs(angles[:, len(order):]).max(initial=0.0) > 1e-7:
+    if len(order) < 3 and np.abs(angles[:, len(order) :]).max(initial=0.0) > 1e-7:
         raise AdverbsError(f"joint {name!r} has only channels {order} but the clip rotates it about other axes")
     return angles[:, : len(order)]

@@ -76,8 +76,13 @@ class Clip:
         return forward_kinematics(self.skeleton.parents, self.rotations, self.translations)
 
     def replace(self, **changes) -> Clip:
-        fields = dict(skeleton=self.skeleton, rotations=self.rotations, translations=self.translations,
-                      fps=self.fps, name=self.name)
+        fields = {
+            "skeleton": self.skeleton,
+            "rotations": self.rotations,
+            "translations": self.translations,
+            "fps": self.fps,
+            "name": self.name,
+        }
         fields.update(changes)
         return Clip(**fields)
 
@@ -85,7 +90,9 @@ class Clip:
         """Frames ``start:stop`` (Python slice rules); an empty range is an error."""
         idx = np.arange(self.num_frames)[slice(start, stop)]
         if len(idx) == 0:
-            raise AdverbsError(f"clip {self.name!r}: frame range {start}:{stop} is empty (clip has {self.num_frames} frames)")
+            raise AdverbsError(
+                f"clip {self.name!r}: frame range {start}:{stop} is empty (clip has {self.num_frames} frames)"
+            )
         return self.replace(rotations=self.rotations[idx], translations=self.translations[idx])
 
     def resample(self, fps: float) -> Clip:

@@ -10,6 +10,7 @@ heel strike to the next one of the other foot.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from itertools import pairwise
 
 import numpy as np
 
@@ -116,8 +117,8 @@ def find_contacts(
     else:
         still = np.ones(low.shape, dtype=bool)
     planted = np.any(low & still, axis=-1)  # (F, N)
-    gap = int(round(max_gap * clip.fps))
-    shortest = max(int(round(min_duration * clip.fps)), 1)
+    gap = round(max_gap * clip.fps)
+    shortest = max(round(min_duration * clip.fps), 1)
     for i in range(len(feet)):
         planted[:, i] = _clean(planted[:, i], gap, shortest)
     return Contacts(tuple(feet), planted, clip.fps)
@@ -131,7 +132,7 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
 def _clean(mask: np.ndarray, gap: int, shortest: int) -> np.ndarray:
     mask = mask.copy()
     runs = _runs(mask)
-    for (_, b), (c, _) in zip(runs[:-1], runs[1:]):
+    for (_, b), (c, _) in pairwise(runs):
         if c - b <= gap:
             mask[b:c] = True
     for a, b in _runs(mask):
@@ -169,7 +170,7 @@ def cut_steps(
             f"run past the clip's last heel strike (frame {steps[-1][0]})"
         )
     chosen = steps[first : first + n + 1]
-    for (fa, a), (fb, b) in zip(chosen[:-1], chosen[1:]):
+    for (fa, a), (fb, b) in pairwise(chosen):
         if a == b:
             raise AdverbsError(
                 f"clip {clip.name!r}: heel strikes at frames {fa} and {fb} are of the same foot; "

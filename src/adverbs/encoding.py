@@ -100,7 +100,9 @@ class DofEncoding:
     names: tuple[str, ...]
 
     @classmethod
-    def fit(cls, clips: Clip | Sequence[Clip], kind: str = "logquat", body_root: int | str | None = None) -> DofEncoding:
+    def fit(
+        cls, clips: Clip | Sequence[Clip], kind: str = "logquat", body_root: int | str | None = None
+    ) -> DofEncoding:
         """Choose references and translation DOFs from ``clips`` (all on one skeleton).
 
         The reference of each joint is the mean rotation over every frame of every clip, so the
@@ -236,7 +238,9 @@ class DofEncoding:
         skel, root = self.skeleton, self.body_root
         dt = 1.0 / fps
         turn = dofs[..., 2]
-        h = start[..., 2, None] + np.concatenate([np.zeros(lead + (1,)), np.cumsum(turn[..., :-1] * dt, axis=-1)], axis=-1)
+        h = start[..., 2, None] + np.concatenate(
+            [np.zeros(lead + (1,)), np.cumsum(turn[..., :-1] * dt, axis=-1)], axis=-1
+        )
         mid = 0.5 * (h[..., 1:] + h[..., :-1])
         v = np.stack([dofs[..., :-1, 0], np.zeros(lead + (f - 1,)), dofs[..., :-1, 1]], axis=-1)
         steps = quat.rotate(quat.about_y(mid), v) * dt
@@ -266,7 +270,9 @@ class DofEncoding:
             translations[..., root, :] = p
         return rotations, translations
 
-    def decode_clip(self, dofs: np.ndarray, fps: float, start: Sequence[float] = (0.0, 0.0, 0.0), name: str = "") -> Clip:
+    def decode_clip(
+        self, dofs: np.ndarray, fps: float, start: Sequence[float] = (0.0, 0.0, 0.0), name: str = ""
+    ) -> Clip:
         """A :class:`Clip` from DOFs ``(F, D)``."""
         rotations, translations = self.decode(dofs, fps, start)
         return Clip(self.skeleton, rotations, translations, fps, name=name)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 from . import quat
@@ -26,24 +28,49 @@ def forward_kinematics(
     positions : (..., J, 3)
     global_rotations : (..., J, 4)
 
-    ``g_j = g_parent · l_j`` and ``p_j = p_parent + g_parent · t_j``: one loop over joints, every
-    other axis vectorized.
+    ``g_j = g_parent · l_j`` and ``p_j = p_parent + g_parent · t_j``, one depth level of the tree
+    at a time (all joints at that depth together), every other axis vectorized.
     """
+    parents = np.asarray(parents)
     rotations = np.asarray(rotations, dtype=float)
     translations = np.asarray(translations, dtype=float)
     shape = np.broadcast_shapes(rotations.shape[:-1], translations.shape[:-1])
-    grot = np.empty(shape + (4,))
-    gpos = np.empty(shape + (3,))
     rotations = np.broadcast_to(rotations, shape + (4,))
     translations = np.broadcast_to(translations, shape + (3,))
-    for j, p in enumerate(parents):
-        if p < 0:
-            grot[..., j, :] = rotations[..., j, :]
-            gpos[..., j, :] = translations[..., j, :]
-        else:
-            grot[..., j, :] = quat.mul(grot[..., p, :], rotations[..., j, :])
-            gpos[..., j, :] = gpos[..., p, :] + quat.rotate(grot[..., p, :], translations[..., j, :])
+    grot = np.empty(shape + (4,))
+    gpos = np.empty(shape + (3,))
+    grot[..., 0, :] = rotations[..., 0, :]
+    gpos[..., 0, :] = translations[..., 0, :]
+    for joints, joint_parents in _levels(parents):
+        gp = grot[..., joint_parents, :]
+        grot[..., joints, :] = quat.mul(gp, rotations[..., joints, :])
+        gpos[..., joints, :] = gpos[..., joint_parents, :] + quat.rotate(gp, translations[..., joints, :])
     return gpos, grot
+
+
+@lru_cache(maxsize=64)
+def _levels_cached(parents: tuple[int, ...]) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
+    depth = [0] * len(parents)
+    for j in range(1, len(parents)):
+        depth[j] = depth[parents[j]] + 1
+    depth_arr = np.array(depth)
+    out = []
+    for d in range(1, int(depth_arr.max(initial=0)) + 1):
+        joints = np.flatnonzero(depth_arr == d)
+        out.append((joints, np.array([parents[j] for j in joints])))
+    return tuple(out)
+
+
+def _levels(parents: np.ndarray) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
+    """Joints grouped by depth below the root, with their parents, deepest last."""
+    if (
+        len(parents) == 0
+        or parents[0] != -1
+        or np.any(parents[1:] >= np.arange(1, len(parents)))
+        or np.any(parents[1:] < 0)
+    ):
+        raise ValueError("parents must start with the root (-1) and list every parent before its children")
+    return _levels_cached(tuple(int(p) for p in parents))
 
 
 def end_site_positions(

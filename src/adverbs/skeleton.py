@@ -127,17 +127,31 @@ class Skeleton:
         return pos
 
     def same_structure(self, other: Skeleton, tol: float = 1e-6) -> bool:
-        """True when ``other`` has the same joints, parents and offsets (to ``tol`` metres)."""
-        return (
-            self.names == other.names
-            and np.array_equal(self.parents, other.parents)
-            and np.allclose(self.offsets, other.offsets, atol=tol, rtol=0.0)
-        )
+        """True when ``other`` has the same joints, parents, channels and bones (to ``tol`` metres).
+
+        The offsets of the body root and its ancestors are left out: they place the figure in the
+        world (some files bake the take's starting position into the hips' offset), they are not bones.
+        """
+        if (
+            self.names != other.names
+            or not np.array_equal(self.parents, other.parents)
+            or self.channels != other.channels
+        ):
+            return False
+        bones = np.ones(self.num_joints, dtype=bool)
+        bones[self.ancestors(self.body_root())] = False
+        return bool(np.allclose(self.offsets[bones], other.offsets[bones], atol=tol, rtol=0.0))
 
     def with_offsets(self, offsets: np.ndarray) -> Skeleton:
         return Skeleton(
-            self.names, self.parents, offsets, self.channels,
-            self.end_site_parents, self.end_site_offsets, self.unit_scale, self.units,
+            self.names,
+            self.parents,
+            offsets,
+            self.channels,
+            self.end_site_parents,
+            self.end_site_offsets,
+            self.unit_scale,
+            self.units,
         )
 
     # ----- sides, mirroring, feet -------------------------------------------------------------
@@ -192,11 +206,14 @@ class Skeleton:
         """
         m = self.mirror_map()
         if np.all(m == np.arange(self.num_joints)):
-            raise AdverbsError("cannot mirror: no joint names mark a left or right side (e.g. lfemur/rfemur, Foot_L/Foot_R)")
+            raise AdverbsError(
+                "cannot mirror: no joint names mark a left or right side (e.g. lfemur/rfemur, Foot_L/Foot_R)"
+            )
         for j in range(1, self.num_joints):
             if m[self.parents[j]] != self.parents[m[j]]:
                 raise AdverbsError(
-                    f"cannot mirror: {self.names[j]!r} and its twin {self.names[m[j]]!r} hang from joints that are not twins"
+                    f"cannot mirror: {self.names[j]!r} and its twin {self.names[m[j]]!r} "
+                    "hang from joints that are not twins"
                 )
         candidates = np.array([[1.0, 0, 0, 0], [0, 1.0, 0, 0], [0, 0, 1.0, 0], [0, 0, 0, 1.0]])
         reflections = np.array([[-1.0, 1, 1], [1, -1.0, 1], [1, 1, -1.0], [-1.0, -1, -1]])
@@ -269,7 +286,7 @@ def _swap_side(name: str, kind: str, left: str, right: str) -> str | None:
     if kind == "prefix":
         if not name.startswith(left) or len(name) == len(left):
             return None
-        rest = name[len(left):]
+        rest = name[len(left) :]
         # A one-letter prefix must be followed by a letter of the other case class (lfemur, LeftArm is infix).
         if len(left) == 1 and not re.match(r"[a-z]" if left.islower() else r"[A-Z_a-z]", rest):
             return None

@@ -1,0 +1,29 @@
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from adverbs import read_bvh
+
+DATA = Path(__file__).resolve().parent.parent / "data"
+ALL_BVH = sorted(DATA.glob("*/*.bvh"))
+CMU = DATA / "cmu16"
+BANDAI = DATA / "bandai"
+REACTIDLE = DATA / "reactidle"
+# One clip of each source, for tests that need variety more than volume.
+ONE_PER_SOURCE = [CMU / "16_15_walk.bvh", BANDAI / "dataset-1_walk_normal_001.bvh", REACTIDLE / "idle_002_genuine.bvh"]
+
+
+def ids(paths):
+    return [p.name for p in paths]
+
+
+@pytest.fixture(scope="session")
+def cmu_walk():
+    return read_bvh(CMU / "16_15_walk.bvh")
+
+
+@pytest.fixture(scope="session")
+def bandai_walk():
+    return read_bvh(BANDAI / "dataset-1_walk_normal_001.bvh")

@@ -1,0 +1,57 @@
+"""The command line, run as a user runs it: a real process on real files."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+from conftest import BANDAI, CMU
+
+from adverbs import read_bvh
+
+
+def run(*args):
+    return subprocess.run(
+        [sys.executable, "-m", "adverbs.cli", *map(str, args)], capture_output=True, text=True, check=False
+    )
+
+
+def test_info_json():
+    r = run("info", CMU / "16_15_walk.bvh", "--json")
+    assert r.returncode == 0, r.stderr
+    report = json.loads(r.stdout)
+    assert report["frames"] == 117 and report["fps"] == 30 and report["units"] == "cm"
+    assert len(report["joints"]) == 19 and report["joints"][0]["name"] == "pelvis"
+    assert report["joints"][1]["channels"] == ["Zrotation", "Xrotation", "Yrotation"]
+    assert set(report["feet"]) == {"left", "right"}
+    assert report["feet"]["left"]["ankle"] == "lfoot" and report["feet"]["left"]["contacts"]
+
+
+def test_info_text():
+    r = run("info", BANDAI / "dataset-1_walk_sad_001.bvh")
+    assert r.returncode == 0, r.stderr
+    assert "347 frames at 30 fps" in r.stdout and "left foot (Foot_L, toe Toes_L)" in r.stdout
+
+
+def test_convert_frames_mirror_fps(tmp_path):
+    src = CMU / "16_19_walk_90-degree_right_turn.bvh"
+    out = tmp_path / "sub" / "left.bvh"
+    r = run("convert", src, out, "--frames", "10:70", "--mirror", "--fps", "60")
+    assert r.returncode == 0, r.stderr
+    clip, done = read_bvh(src), read_bvh(out)
+    expected = clip.frames(10, 70).mirror().resample(60)
+    assert done.fps == 60 and done.num_frames == expected.num_frames == 119
+    assert np.allclose(done.global_positions(), expected.global_positions(), atol=1e-6)
+
+
+def test_errors_name_the_file_and_line_and_exit_1(tmp_path):
+    bad = tmp_path / "bad.bvh"
+    bad.write_text((CMU / "16_21_walk.bvh").read_text().replace("CHANNELS 3 Zrotation", "CHANNELS 3 Qrotation", 1))
+    r = run("info", bad)
+    assert r.returncode == 1 and f"{bad}:" in r.stderr and "Qrotation" in r.stderr
+    r = run("convert", CMU / "16_21_walk.bvh", tmp_path / "x.bvh", "--frames", "50:10")
+    assert r.returncode == 1 and "empty" in r.stderr
+    r = run("convert", CMU / "16_21_walk.bvh", tmp_path / "x.bvh", "--fps", "-3")
+    assert r.returncode == 2 and "positive" in r.stderr

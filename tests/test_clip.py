@@ -1,0 +1,108 @@
+"""Clip edits: mirroring, resampling, frame ranges."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import BANDAI, CMU, ONE_PER_SOURCE, ids
+
+from adverbs import AdverbsError, read_bvh
+from adverbs.encoding import heading, lateral_axis
+
+
+def _heading_change(clip) -> float:
+    skel = clip.skeleton
+    root = skel.body_root()
+    _, grot = clip.forward_kinematics()
+    h = np.unwrap(heading(grot[:, root], lateral_axis(skel, root)))
+    return float(np.rad2deg(h[-1] - h[0]))
+
+
+@pytest.mark.parametrize(
+    "path",
+    ONE_PER_SOURCE + [BANDAI / "dataset-2_walk-turn-right_normal_003.bvh"],
+    ids=ids(ONE_PER_SOURCE) + ["bandai-turn"],
+)
+def test_mirror_twice_is_identity(path):
+    clip = read_bvh(path)
+    twice = clip.mirror().mirror()
+    # The same rotations (a quaternion and its negative are one rotation).
+    assert np.allclose(np.abs(np.sum(twice.rotations * clip.rotations, axis=-1)), 1.0, atol=1e-15)
+    assert np.allclose(twice.translations, clip.translations, atol=1e-15)
+
+
+@pytest.mark.parametrize("path", ONE_PER_SOURCE, ids=ids(ONE_PER_SOURCE))
+def test_mirror_reflects_every_joint_onto_its_twin(path):
+    clip = read_bvh(path)
+    twin = clip.skeleton.mirror_map()
+    mirrored = clip.mirror().global_positions()
+    expected = clip.global_positions()[:, twin] * [-1.0, 1.0, 1.0]
+    # Exact where the twins' offsets are mirror images (CMU); within the rig's asymmetry elsewhere.
+    _, _, mismatch = clip.skeleton.mirror_frames()
+    assert np.abs(mirrored - expected).max() <= 1e-12 + 4 * mismatch
+
+
+@pytest.mark.parametrize(
+    "name", ["16_19_walk_90-degree_right_turn.bvh", "16_29_walk_90-degree_right_turn.bvh", "16_13_walk_veer_right.bvh"]
+)
+def test_mirrored_right_turn_turns_left_by_the_same_angle(name):
+    right = read_bvh(CMU / name)
+    turn = _heading_change(right)
+    assert turn < -25.0  # a right turn: heading decreases (towards −X when facing +Z)
+    assert _heading_change(right.mirror()) == pytest.approx(-turn, abs=2.0)
+
+
+def test_mirrored_right_turn_is_like_a_captured_left_turn():
+    assert _heading_change(read_bvh(CMU / "16_19_walk_90-degree_right_turn.bvh").mirror()) > 60
+    assert _heading_change(read_bvh(CMU / "16_17_walk_90-degree_left_turn.bvh")) > 60
+
+
+def test_mirror_needs_side_names(cmu_walk):
+    skel = cmu_walk.skeleton
+    from adverbs import Skeleton
+
+    anonymous = Skeleton(
+        tuple(f"j{i}" for i in range(skel.num_joints)),
+        skel.parents,
+        skel.offsets,
+        skel.channels,
+        skel.end_site_parents,
+        skel.end_site_offsets,
+    )
+    with pytest.raises(AdverbsError, match="left or right"):
+        cmu_walk.replace(skeleton=anonymous).mirror()
+
+
+def test_resample_up_and_back_is_identity(cmu_walk):
+    up = cmu_walk.resample(60)
+    assert up.fps == 60 and up.num_frames == 2 * cmu_walk.num_frames - 1
+    assert up.duration == pytest.approx(cmu_walk.duration)
+    back = up.resample(30)
+    assert np.allclose(back.global_positions(), cmu_walk.global_positions(), atol=1e-12)
+    # New frames halfway between old ones: the root is halfway too.
+    mid = up.root_positions[1::2]
+    assert np.allclose(mid, 0.5 * (cmu_walk.root_positions[:-1] + cmu_walk.root_positions[1:]))
+
+
+def test_resample_down_keeps_duration_and_bones(bandai_walk):
+    down = bandai_walk.resample(24)
+    assert down.fps == 24
+    assert abs(down.duration - bandai_walk.duration) < 1 / 24
+    from adverbs.fk import bone_lengths
+
+    skel = bandai_walk.skeleton
+    legs = [skel.index(n) - 1 for n in ("LowerLeg_L", "Foot_L", "Toes_R")]
+    a = bone_lengths(skel.parents, bandai_walk.global_positions()[:1])[0, legs]
+    b = bone_lengths(skel.parents, down.global_positions())[:, legs]
+    assert np.allclose(b, a, atol=1e-9)
+    with pytest.raises(AdverbsError):
+        bandai_walk.resample(0)
+
+
+def test_frames_slices_and_rejects_empty(cmu_walk):
+    part = cmu_walk.frames(10, 20)
+    assert part.num_frames == 10
+    assert np.array_equal(part.rotations, cmu_walk.rotations[10:20])
+    assert cmu_walk.frames(-5, None).num_frames == 5
+    with pytest.raises(AdverbsError, match="empty"):
+        cmu_walk.frames(50, 40)
