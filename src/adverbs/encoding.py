@@ -30,6 +30,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.ndimage import gaussian_filter1d
 from scipy.spatial.transform import Rotation
 
 from . import quat
@@ -39,6 +40,7 @@ from .fk import forward_kinematics
 from .skeleton import Skeleton
 
 KINDS = ("euler", "logquat")
+HEADING_SMOOTHING = 0.3  # seconds
 ROOT_COLUMNS = ("root.vx", "root.vz", "root.turn", "root.y")
 _MOVING_TRANSLATION = 1e-7  # metres: position channels that vary more than this become DOFs
 
@@ -69,6 +71,21 @@ def heading(global_rotation: np.ndarray, lateral: np.ndarray) -> np.ndarray:
     return np.arctan2(-left[..., 2], left[..., 0])
 
 
+def character_heading(
+    global_rotation: np.ndarray, lateral: np.ndarray, fps: float, smoothing: float = HEADING_SMOOTHING
+) -> np.ndarray:
+    """The character's heading ``(F,)``, unwrapped: the hips' heading low-passed over ``smoothing`` seconds.
+
+    The pelvis swings its yaw back and forth with every step; the character's heading is the
+    direction it travels around, so the swing is filtered out (a Gaussian of standard deviation
+    ``smoothing``) and left to the body root's orientation relative to the heading.
+    """
+    h = np.unwrap(heading(global_rotation, lateral))
+    if smoothing > 0 and len(h) > 1:
+        h = gaussian_filter1d(h, smoothing * fps, mode="nearest")
+    return h
+
+
 @dataclass(frozen=True, eq=False)
 class DofEncoding:
     """A fitted DOF layout for one skeleton: use :meth:`fit`, then :meth:`encode` / :meth:`decode`.
@@ -88,6 +105,8 @@ class DofEncoding:
     translated : (T,) int
         Joints with translation columns.
     names : tuple of str, (D,)
+    smoothing : float
+        Seconds over which the heading is low-passed (see :func:`character_heading`).
     """
 
     kind: str
@@ -98,6 +117,7 @@ class DofEncoding:
     base_translations: np.ndarray
     translated: np.ndarray
     names: tuple[str, ...]
+    smoothing: float = HEADING_SMOOTHING
 
     @classmethod
     def fit(
@@ -136,7 +156,8 @@ class DofEncoding:
         samples = []
         for c in clips:
             _, grot = c.forward_kinematics()
-            rel = quat.mul(quat.about_y(-heading(grot[:, root], lateral)), grot[:, root])
+            h = character_heading(grot[:, root], lateral, c.fps)
+            rel = quat.mul(quat.about_y(-h), grot[:, root])
             local = c.rotations.copy()
             local[:, root] = rel
             samples.append(local)
@@ -151,7 +172,7 @@ class DofEncoding:
             names.extend(f"{skel.names[j]}.{a}" for a in axes)
         for j in translated:
             names.extend(f"{skel.names[j]}.{a}" for a in ("tx", "ty", "tz"))
-        return cls(kind, skel, root, lateral, reference, base, translated, tuple(names))
+        return cls(kind, skel, root, lateral, reference, base, translated, tuple(names), HEADING_SMOOTHING)
 
     # ----- layout ----------------------------------------------------------------------------
     @property
@@ -171,7 +192,7 @@ class DofEncoding:
     def start(self, clip: Clip) -> np.ndarray:
         """Where ``clip`` starts: ``(x, z, heading)`` of the body root in its first frame."""
         gpos, grot = clip.forward_kinematics()
-        h = heading(grot[0, self.body_root], self.lateral)
+        h = character_heading(grot[:, self.body_root], self.lateral, clip.fps, self.smoothing)[0]
         return np.array([gpos[0, self.body_root, 0], gpos[0, self.body_root, 2], h])
 
     def encode(self, clip: Clip) -> np.ndarray:
@@ -179,7 +200,7 @@ class DofEncoding:
         self._check(clip)
         gpos, grot = clip.forward_kinematics()
         root = self.body_root
-        h = np.unwrap(heading(grot[:, root], self.lateral))
+        h = character_heading(grot[:, root], self.lateral, clip.fps, self.smoothing)
         p = gpos[:, root]
         f = clip.num_frames
         out = np.empty((f, self.num_dofs))

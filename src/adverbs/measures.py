@@ -1,0 +1,81 @@
+"""Adverb values measured from motion: the same function measures an example and a synthesized clip.
+
+| measure | value |
+| --- | --- |
+| ``speed`` | body-root horizontal path length / duration, m/s |
+| ``turn_rate`` | heading change / duration, deg/s (positive turns left) |
+| ``heading_change`` | heading at the end minus at the start, degrees |
+| ``joint_position`` | a joint's position at a keytime, in the character's starting frame: x left, z forward (m, from the body root's starting ground point), y up (m, world height); needs ``joint``, ``axis`` and ``keytime`` (0-based index) |
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from . import quat
+from .clip import Clip
+from .encoding import character_heading, lateral_axis
+from .errors import AdverbsError
+
+MEASURES = ("speed", "turn_rate", "heading_change", "joint_position")
+_UNITS = {"speed": "m/s", "turn_rate": "deg/s", "heading_change": "deg", "joint_position": "m"}
+
+
+def default_unit(kind: str) -> str:
+    return _UNITS[kind]
+
+
+def check_measure(spec: Mapping, skeleton_names: tuple[str, ...], num_keytimes: int | None, where: str) -> dict:
+    """Validate a measure's description (``{"kind": ..., ...}``); errors start with ``where``."""
+    kind = spec.get("kind")
+    if kind not in MEASURES:
+        raise AdverbsError(f"{where}: unknown measure {kind!r}; measures are {', '.join(MEASURES)}")
+    out = {"kind": kind}
+    if kind == "joint_position":
+        for key in ("joint", "axis", "keytime"):
+            if key not in spec:
+                raise AdverbsError(f"{where}: measure 'joint_position' needs '{key}'")
+        if spec["joint"] not in skeleton_names:
+            raise AdverbsError(f"{where}: measure names joint {spec['joint']!r}, which the skeleton does not have")
+        if spec["axis"] not in ("x", "y", "z"):
+            raise AdverbsError(f"{where}: axis must be 'x', 'y' or 'z', got {spec['axis']!r}")
+        k = spec["keytime"]
+        if not isinstance(k, int) or k < 0 or (num_keytimes is not None and k >= num_keytimes):
+            raise AdverbsError(f"{where}: keytime must be an index from 0 to {(num_keytimes or 1) - 1}, got {k!r}")
+        out.update(joint=spec["joint"], axis=spec["axis"], keytime=k)
+    unknown = set(spec) - {"kind", "joint", "axis", "keytime"}
+    if unknown:
+        raise AdverbsError(f"{where}: unknown field(s) {', '.join(sorted(unknown))} in measure")
+    return out
+
+
+def body_track(clip: Clip) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Body-root positions ``(F, 3)``, unwrapped heading ``(F,)``, and global positions/rotations."""
+    skel = clip.skeleton
+    root = skel.body_root()
+    gpos, grot = clip.forward_kinematics()
+    h = character_heading(grot[:, root], lateral_axis(skel, root), clip.fps)
+    return gpos[:, root], h, gpos, grot
+
+
+def measure(clip: Clip, keytimes: np.ndarray, spec: Mapping) -> float:
+    """The value of measure ``spec`` on ``clip`` with its ``keytimes (N,)`` in seconds."""
+    root, h, gpos, _ = body_track(clip)
+    duration = clip.duration
+    kind = spec["kind"]
+    if kind == "speed":
+        path = np.sum(np.linalg.norm(np.diff(root[:, [0, 2]], axis=0), axis=1))
+        return float(path / duration)
+    if kind == "turn_rate":
+        return float(np.rad2deg(h[-1] - h[0]) / duration)
+    if kind == "heading_change":
+        return float(np.rad2deg(h[-1] - h[0]))
+    j = clip.skeleton.index(spec["joint"])
+    x = float(keytimes[spec["keytime"]]) * clip.fps
+    i0 = min(int(np.floor(x)), clip.num_frames - 2)
+    u = x - i0
+    p = (1.0 - u) * gpos[i0, j] + u * gpos[i0 + 1, j]
+    local = quat.rotate(quat.about_y(-h[0]), p - np.array([root[0, 0], 0.0, root[0, 2]]))
+    return float(local["xyz".index(spec["axis"])])

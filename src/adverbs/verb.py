@@ -1,0 +1,460 @@
+"""A verb: example motions → interpolation tables → pose at any adverb point ``p`` and time (§3, §4).
+
+Build: each example is encoded to DOF curves, warped to generic time by its keytimes, and fitted with
+uniform cubic B-splines (NumCP control points per DOF, least squares). Every control point and every
+keytime is then interpolated over adverb space by :class:`~adverbs.rbf.AdverbInterpolator` (eqs. 3, 4),
+used through its cardinal weights ``w(p)``: ``b(p) = Σ_i w_i(p) b_i``.
+
+Keytime policy: the paper interpolates keytimes directly (eq. 4), which can make them cross when
+extrapolating. Here the *intervals* between keytimes are interpolated as logarithms,
+``K_{m+1}(p) − K_m(p) = exp(Σ_i w_i(p) log(K_{i,m+1} − K_{i,m}))``, so keytimes are strictly increasing at
+every ``p``, examples are still reproduced exactly, and durations extrapolate multiplicatively (a walk
+25% faster than the fastest example gets shorter, never negative, steps).
+
+Evaluate: ``K(p)``; ``t = GenericTime(T, K(p))``; only the four control points live at ``t`` are
+interpolated. What depends on ``p`` alone (weights, keytimes) is cached for the last ``p`` seen.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+import os
+import tempfile
+import zipfile
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import bspline, timewarp
+from .clip import Clip
+from .encoding import DofEncoding
+from .errors import AdverbsError
+from .fk import forward_kinematics
+from .rbf import AdverbInterpolator
+from .skeleton import Skeleton
+
+FORMAT = "adverbs-verb"
+SEAM_BLEND = 0.25  # fraction of a cycle over which the seam between cycles is blended
+VERSION = 1
+
+
+@dataclass(frozen=True)
+class Adverb:
+    """One axis of a verb's parameter space; ``measure`` says how it is read off a motion (or ``None``)."""
+
+    name: str
+    unit: str = ""
+    measure: dict | None = None
+
+
+@dataclass(eq=False)
+class Example:
+    """One example motion, cut and annotated: the input of :meth:`Verb.build`.
+
+    ``keytimes (N,)`` are clock seconds from 0 to the clip's duration; ``point (A,)`` its adverb values.
+    """
+
+    name: str
+    clip: Clip
+    keytimes: np.ndarray
+    point: np.ndarray
+    source: str = ""
+    part: str = ""
+
+
+@dataclass(frozen=True)
+class ExampleRecord:
+    """What a built verb keeps about each example (its motion lives in the coefficient table)."""
+
+    name: str
+    source: str
+    part: str
+    fit_error: float = field(default=0.0)  # largest joint-position error of the B-spline fit, metres
+
+
+class Verb:
+    """A parameterized motion. Use :meth:`build` or :meth:`load`.
+
+    Attributes
+    ----------
+    points : (E, A) adverb points of the examples
+    keytimes_table : (E, N) keytimes of the examples, seconds
+    coefficients : (E, NumCP, D) B-spline control points of every DOF of every example
+    encoding : DofEncoding (the skeleton is ``encoding.skeleton``)
+    """
+
+    def __init__(
+        self,
+        name: str,
+        encoding: DofEncoding,
+        adverbs: Sequence[Adverb],
+        examples: Sequence[ExampleRecord],
+        points: np.ndarray,
+        keytimes: np.ndarray,
+        coefficients: np.ndarray,
+        cyclic: bool,
+        fps: float,
+    ):
+        self.name = name
+        self.encoding = encoding
+        self.adverbs = tuple(adverbs)
+        self.examples = tuple(examples)
+        self.points = np.asarray(points, dtype=float)
+        self.keytimes_table = timewarp.check_keytimes(keytimes, f"verb {name!r}")
+        self.coefficients = np.asarray(coefficients, dtype=float)
+        self.cyclic = bool(cyclic)
+        self.fps = float(fps)
+        e = len(self.examples)
+        if self.points.shape != (e, len(self.adverbs)) or self.keytimes_table.shape[0] != e:
+            raise AdverbsError(f"verb {name!r}: tables disagree on the number of examples or adverbs")
+        if self.coefficients.shape[0] != e or self.coefficients.shape[2] != encoding.num_dofs:
+            raise AdverbsError(f"verb {name!r}: coefficient table {self.coefficients.shape} does not fit")
+        self.interpolator = AdverbInterpolator(self.points, [x.name for x in self.examples])
+        self._log_intervals = np.log(np.diff(self.keytimes_table, axis=1))  # (E, N-1)
+        self._by_cp = np.ascontiguousarray(self.coefficients.transpose(1, 0, 2))  # (NumCP, E, D)
+        self._cache_p: np.ndarray | None = None
+        self._cache_w = np.empty(0)
+        self._cache_k = np.empty(0)
+
+    # ----- shape -------------------------------------------------------------------------------
+    @property
+    def skeleton(self) -> Skeleton:
+        return self.encoding.skeleton
+
+    @property
+    def num_cp(self) -> int:
+        return self.coefficients.shape[1]
+
+    @property
+    def num_keytimes(self) -> int:
+        return self.keytimes_table.shape[1]
+
+    @property
+    def adverb_names(self) -> tuple[str, ...]:
+        return tuple(a.name for a in self.adverbs)
+
+    def point(self, values: dict[str, float] | Sequence[float] | np.ndarray) -> np.ndarray:
+        """An adverb point ``(A,)`` from a mapping of adverb names (missing ones: the examples' mean) or a sequence."""
+        if isinstance(values, dict):
+            unknown = set(values) - set(self.adverb_names)
+            if unknown:
+                raise AdverbsError(
+                    f"verb {self.name!r} has no adverb {sorted(unknown)[0]!r}; adverbs are {', '.join(self.adverb_names)}"
+                )
+            p = self.points.mean(axis=0)
+            for k, v in values.items():
+                p[self.adverb_names.index(k)] = v
+        else:
+            p = np.asarray(values, dtype=float)
+        if p.shape[-1:] != (len(self.adverbs),):
+            raise AdverbsError(f"verb {self.name!r} takes {len(self.adverbs)} adverbs, got {p.shape[-1:]}")
+        if not np.all(np.isfinite(p)):
+            bad = [self.adverb_names[i] for i in np.flatnonzero(~np.isfinite(p.reshape(-1, p.shape[-1])).any(0))]
+            raise AdverbsError(f"adverb {bad[0]!r} must be a finite number")
+        return p
+
+    # ----- build -------------------------------------------------------------------------------
+    @classmethod
+    def build(
+        cls,
+        name: str,
+        examples: Sequence[Example],
+        adverbs: Sequence[Adverb],
+        num_cp: int = 12,
+        encoding: str = "logquat",
+        cyclic: bool = True,
+    ) -> Verb:
+        """Fit B-splines to every example in generic time and set up the interpolation (§3.1, §4)."""
+        if len(examples) < 2:
+            raise AdverbsError(f"verb {name!r}: needs at least two examples, got {len(examples)}")
+        bspline.check_num_cp(num_cp)
+        first = examples[0]
+        for ex in examples[1:]:
+            if not ex.clip.skeleton.same_structure(first.clip.skeleton):
+                raise AdverbsError(f"example {ex.name!r} is on a different skeleton from example {first.name!r}")
+            if len(ex.keytimes) != len(first.keytimes):
+                raise AdverbsError(
+                    f"example {ex.name!r} has {len(ex.keytimes)} keytimes, example {first.name!r} has "
+                    f"{len(first.keytimes)}: every example of a verb needs the same structure"
+                )
+        enc = DofEncoding.fit([ex.clip for ex in examples], encoding)
+        coefficients = np.empty((len(examples), num_cp, enc.num_dofs))
+        records = []
+        for i, ex in enumerate(examples):
+            k = timewarp.check_keytimes(ex.keytimes, f"example {ex.name!r}")
+            if k[0] != 0.0 or abs(k[-1] - ex.clip.duration) > 0.5 / ex.clip.fps:
+                raise AdverbsError(
+                    f"example {ex.name!r}: keytimes must run from 0 to the clip's duration {ex.clip.duration:.4f} s, "
+                    f"got {k[0]:.4f} to {k[-1]:.4f}"
+                )
+            dofs = enc.encode(ex.clip)
+            t = timewarp.generic_time(np.arange(ex.clip.num_frames) / ex.clip.fps, k)
+            coefficients[i], _ = bspline.fit(t, dofs, num_cp)
+            fitted = enc.decode(bspline.evaluate(coefficients[i], t), ex.clip.fps, enc.start(ex.clip))
+            err = _body_error(enc, ex.clip, fitted)
+            records.append(ExampleRecord(ex.name, ex.source, ex.part, err))
+        keytimes = np.stack([np.asarray(ex.keytimes, dtype=float) for ex in examples])
+        keytimes[:, -1] = [ex.clip.duration for ex in examples]
+        points = np.stack([np.asarray(ex.point, dtype=float) for ex in examples])
+        return cls(name, enc, adverbs, records, points, keytimes, coefficients, cyclic, first.clip.fps)
+
+    # ----- evaluate ----------------------------------------------------------------------------
+    def weights(self, p: np.ndarray) -> np.ndarray:
+        """Cardinal weights ``(..., E)`` at adverb points ``(..., A)``."""
+        return self.interpolator.weights(p)
+
+    def keytimes(self, p: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
+        """Keytimes ``(..., N)`` at ``p``: strictly increasing from 0 (see the module's keytime policy)."""
+        w = self.weights(p) if weights is None else weights
+        steps = np.exp(w @ self._log_intervals)
+        return np.concatenate([np.zeros(steps.shape[:-1] + (1,)), np.cumsum(steps, axis=-1)], axis=-1)
+
+    def control_points(self, p: np.ndarray) -> np.ndarray:
+        """All control points ``(..., NumCP, D)`` at ``p`` (eq. 3)."""
+        w = self.weights(p)
+        return np.tensordot(w, self.coefficients, axes=(-1, 0))
+
+    def dofs(self, p: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """DOFs ``(Q, D)`` at adverb points ``p (Q, A)`` and generic times ``t (Q,)``, batched.
+
+        Only the four live control points of each query are interpolated; queries are grouped by
+        B-spline segment so each group is one matrix product.
+        """
+        p = np.asarray(p, dtype=float)
+        t = np.asarray(t, dtype=float)
+        w = self.weights(p).reshape(-1, len(self.examples))
+        idx, bw = bspline.basis(t.reshape(-1), self.num_cp)
+        if len(w) != len(idx):
+            raise AdverbsError(f"dofs: {len(w)} adverb points but {len(idx)} times")
+        out = np.empty((len(w), self.encoding.num_dofs))
+        first = idx[:, 0]
+        order = np.argsort(first, kind="stable")
+        bounds = np.flatnonzero(np.diff(first[order])) + 1
+        for group in np.split(order, bounds):
+            cps = idx[group[0]]
+            block = self._by_cp[cps]  # (4, E, D)
+            mixed = np.matmul(w[group], block)  # (4, G, D)
+            out[group] = np.einsum("gk,kgd->gd", bw[group], mixed)
+        return out
+
+    def dofs_reference(self, p: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """The same as :meth:`dofs` the slow way: every control point by eq. 3, then the spline."""
+        ip = self.interpolator
+        coef = ip.fit(self.coefficients)
+        out = []
+        for pi, ti in zip(np.asarray(p, dtype=float).reshape(-1, len(self.adverbs)), np.asarray(t).reshape(-1)):
+            out.append(bspline.evaluate(ip.evaluate(pi, coef), np.array(ti)))
+        return np.stack(out)
+
+    def _at(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if self._cache_p is None or not np.array_equal(p, self._cache_p):
+            w = self.weights(p)
+            self._cache_w, self._cache_k = w, self.keytimes(p, w)
+            self._cache_p = np.array(p, dtype=float)
+        return self._cache_w, self._cache_k
+
+    def pose(self, p: np.ndarray, clock: float) -> np.ndarray:
+        """DOFs ``(D,)`` at one adverb point and clock time ``T`` seconds into the verb.
+
+        Cyclic verbs wrap ``T`` by the cycle's duration ``K_N(p)``; one-shot verbs hold their ends.
+        The fast path: cached weights and keytimes, four control points, no per-call allocation of tables.
+        """
+        w, k = self._at(p)
+        n = len(k)
+        end = k[-1]
+        clock = float(clock)
+        clock = math.fmod(clock, end) + (end if clock < 0 else 0.0) if self.cyclic else min(max(clock, 0.0), end)
+        m = min(int(np.searchsorted(k, clock, side="right")) - 1, n - 2)
+        t = (m + (clock - k[m]) / (k[m + 1] - k[m])) / (n - 1)
+        idx, bw = bspline.basis(t, self.num_cp)
+        return (bw[:, None] * w[None, :]).reshape(-1) @ self._by_cp[idx].reshape(-1, self._by_cp.shape[2])
+
+    def duration(self, p: np.ndarray) -> float:
+        """Clock duration ``K_N(p)`` of one cycle (or of the whole motion) at ``p``."""
+        return float(self._at(np.asarray(p, dtype=float))[1][-1])
+
+    def synthesize(
+        self,
+        p: np.ndarray,
+        duration: float | None = None,
+        cycles: float | None = None,
+        fps: float | None = None,
+        start: Sequence[float] = (0.0, 0.0, 0.0),
+    ) -> tuple[Clip, np.ndarray]:
+        """Motion at adverb point ``p``: a clip and its keytimes ``(N,)`` (those of the first cycle).
+
+        ``cycles`` (default 1) repeats a cyclic verb, the root carrying on from where each cycle ends;
+        ``duration`` in seconds overrides it. The root starts at ``start = (x, z, heading)``.
+        """
+        p = self.point(p)
+        fps = self.fps if fps is None else float(fps)
+        k = self.keytimes(p)
+        if duration is None:
+            duration = k[-1] * (1.0 if cycles is None else float(cycles))
+        if not (np.isfinite(duration) and duration > 0):
+            raise AdverbsError(f"duration must be a positive number of seconds, got {duration}")
+        frames = int(round(duration * fps)) + 1
+        clock = np.arange(frames) / fps
+        coef = self.control_points(p)
+        if not self.cyclic:
+            dofs = bspline.evaluate(coef, timewarp.generic_time(np.minimum(clock, k[-1]), k))
+        else:
+            # Cycle index and time within it; a frame exactly at a cycle's end belongs to that cycle.
+            cycle = np.maximum(np.ceil(clock / k[-1] - 1e-9) - 1, 0)
+            local = clock - cycle * k[-1]
+            dofs = bspline.evaluate(coef, timewarp.generic_time(local, k))
+            dofs += _seam_offsets(coef, cycle, local, SEAM_BLEND * k[-1])
+        return self.encoding.decode_clip(dofs, fps, start, name=self.name), k
+
+    # ----- files -------------------------------------------------------------------------------
+    def save(self, path: str | Path) -> None:
+        """Write the verb as one zip file: ``verb.json`` (metadata) and ``.npy`` arrays; no pickles.
+
+        The file is written next to its destination and renamed into place, so a crash never
+        leaves half a verb.
+        """
+        path = Path(path)
+        enc, skel = self.encoding, self.skeleton
+        meta = {
+            "format": FORMAT,
+            "version": VERSION,
+            "name": self.name,
+            "cyclic": self.cyclic,
+            "fps": self.fps,
+            "num_cp": self.num_cp,
+            "adverbs": [{"name": a.name, "unit": a.unit, "measure": a.measure} for a in self.adverbs],
+            "examples": [
+                {"name": x.name, "source": x.source, "part": x.part, "fit_error": x.fit_error} for x in self.examples
+            ],
+            "encoding": {
+                "kind": enc.kind,
+                "body_root": enc.body_root,
+                "names": list(enc.names),
+                "heading_smoothing": enc.smoothing,
+            },
+            "skeleton": {
+                "names": list(skel.names),
+                "channels": [list(c) for c in skel.channels],
+                "unit_scale": skel.unit_scale,
+                "units": skel.units,
+            },
+        }
+        arrays = {
+            "points": self.points,
+            "keytimes": self.keytimes_table,
+            "coefficients": self.coefficients,
+            "parents": skel.parents,
+            "offsets": skel.offsets,
+            "end_site_parents": skel.end_site_parents,
+            "end_site_offsets": skel.end_site_offsets,
+            "lateral": enc.lateral,
+            "reference": enc.reference,
+            "base_translations": enc.base_translations,
+            "translated": enc.translated,
+        }
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
+        try:
+            with os.fdopen(fd, "wb") as f, zipfile.ZipFile(f, "w", zipfile.ZIP_DEFLATED) as z:
+                z.writestr("verb.json", json.dumps(meta, indent=1))
+                for key, value in arrays.items():
+                    buf = io.BytesIO()
+                    np.lib.format.write_array(buf, np.ascontiguousarray(value), allow_pickle=False)
+                    z.writestr(f"{key}.npy", buf.getvalue())
+            os.replace(tmp, path)
+        finally:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+
+    @classmethod
+    def load(cls, path: str | Path) -> Verb:
+        """Read a verb written by :meth:`save`; other versions and damaged files raise AdverbsError."""
+        path = Path(path)
+        try:
+            with zipfile.ZipFile(path) as z:
+                meta = json.loads(z.read("verb.json"))
+                if meta.get("format") != FORMAT:
+                    raise AdverbsError(f"{path}: not an adverbs verb file")
+                if meta.get("version") != VERSION:
+                    raise AdverbsError(
+                        f"{path}: verb file version {meta.get('version')!r}; this adverbs reads version {VERSION}. "
+                        "Rebuild it from its spec with `adverbs build`."
+                    )
+                arrays = {
+                    n[:-4]: np.lib.format.read_array(io.BytesIO(z.read(n)), allow_pickle=False)
+                    for n in z.namelist()
+                    if n.endswith(".npy")
+                }
+        except FileNotFoundError:
+            raise AdverbsError(f"{path}: no such verb file") from None
+        except (zipfile.BadZipFile, KeyError, ValueError, EOFError, OSError) as e:
+            if isinstance(e, AdverbsError):
+                raise
+            raise AdverbsError(f"{path}: damaged verb file ({e})") from None
+        try:
+            sk = meta["skeleton"]
+            skel = Skeleton(
+                tuple(sk["names"]),
+                arrays["parents"],
+                arrays["offsets"],
+                tuple(tuple(c) for c in sk["channels"]),
+                arrays["end_site_parents"],
+                arrays["end_site_offsets"],
+                float(sk["unit_scale"]),
+                sk["units"],
+            )
+            e = meta["encoding"]
+            enc = DofEncoding(
+                e["kind"],
+                skel,
+                int(e["body_root"]),
+                arrays["lateral"],
+                arrays["reference"],
+                arrays["base_translations"],
+                arrays["translated"],
+                tuple(e["names"]),
+                float(e["heading_smoothing"]),
+            )
+            adverbs = [Adverb(a["name"], a.get("unit", ""), a.get("measure")) for a in meta["adverbs"]]
+            examples = [ExampleRecord(x["name"], x["source"], x["part"], float(x["fit_error"])) for x in meta["examples"]]
+            return cls(
+                meta["name"],
+                enc,
+                adverbs,
+                examples,
+                arrays["points"],
+                arrays["keytimes"],
+                arrays["coefficients"],
+                bool(meta["cyclic"]),
+                float(meta["fps"]),
+            )
+        except (KeyError, TypeError, ValueError) as e:
+            if isinstance(e, AdverbsError):
+                raise
+            raise AdverbsError(f"{path}: damaged verb file (missing or malformed {e})") from None
+
+
+def _seam_offsets(coef: np.ndarray, cycle: np.ndarray, local: np.ndarray, window: float) -> np.ndarray:
+    """Offsets ``(F, D)`` that hide the seam where a cycle follows itself.
+
+    A captured cycle ends a little away from where it began: the jump ``δ = d(1) − d(0)`` is added to
+    each new cycle at its start and faded out over ``window`` seconds with a smoothstep, so values are
+    continuous (offset blending, as game engines' inertial blends do). The first cycle is untouched.
+    """
+    v0, _, v1, _ = bspline.ends(coef)
+    x = np.clip(local / window, 0.0, 1.0)
+    fade = np.where(cycle > 0, 1.0 - x * x * (3.0 - 2.0 * x), 0.0)
+    return fade[:, None] * (v1 - v0)[None, :]
+
+
+def _body_error(enc: DofEncoding, clip: Clip, decoded: tuple[np.ndarray, np.ndarray]) -> float:
+    """Largest distance between the clip's joints (from the body root down) and the decoded ones."""
+    skel = clip.skeleton
+    body = [j for j in range(skel.num_joints) if enc.body_root in skel.ancestors(j)]
+    a = clip.global_positions()[:, body]
+    b = forward_kinematics(skel.parents, *decoded)[0][:, body]
+    return float(np.linalg.norm(a - b, axis=-1).max())
