@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import io
 import json
-import math
 import os
 import tempfile
 import zipfile
@@ -234,11 +233,12 @@ class Verb:
         first = idx[:, 0]
         order = np.argsort(first, kind="stable")
         bounds = np.flatnonzero(np.diff(first[order])) + 1
+        e = len(self.examples)
         for group in np.split(order, bounds):
-            cps = idx[group[0]]
-            block = self._by_cp[cps]  # (4, E, D)
-            mixed = np.matmul(w[group], block)  # (4, G, D)
-            out[group] = np.einsum("gk,kgd->gd", bw[group], mixed)
+            s = first[group[0]]
+            slab = self._by_cp[s : s + 4].reshape(4 * e, -1)  # (4E, D), a view
+            mixed = (bw[group][:, :, None] * w[group][:, None, :]).reshape(len(group), 4 * e)
+            out[group] = mixed @ slab
         return out
 
     def dofs_reference(self, p: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -252,26 +252,35 @@ class Verb:
 
     def _at(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if self._cache_p is None or not np.array_equal(p, self._cache_p):
-            w = self.weights(p)
-            self._cache_w, self._cache_k = w, self.keytimes(p, w)
-            self._cache_p = np.array(p, dtype=float)
+            p = np.asarray(p, dtype=float)
+            if p.shape != (len(self.adverbs),):
+                raise AdverbsError(f"verb {self.name!r} takes {len(self.adverbs)} adverbs, got shape {p.shape}")
+            w = self.interpolator.weights_one(p)
+            steps = np.exp(w @ self._log_intervals)
+            self._cache_w, self._cache_k = w, np.concatenate(([0.0], np.cumsum(steps)))
+            self._cache_p = p.copy()
         return self._cache_w, self._cache_k
 
     def pose(self, p: np.ndarray, clock: float) -> np.ndarray:
         """DOFs ``(D,)`` at one adverb point and clock time ``T`` seconds into the verb.
 
         Cyclic verbs wrap ``T`` by the cycle's duration ``K_N(p)``; one-shot verbs hold their ends.
-        The fast path: cached weights and keytimes, four control points, no per-call allocation of tables.
+        The fast path: weights and keytimes cached for the last ``p``, the four live control points
+        sliced (not copied), two small matrix products.
         """
         w, k = self._at(p)
         n = len(k)
-        end = k[-1]
+        end = float(k[-1])
         clock = float(clock)
-        clock = math.fmod(clock, end) + (end if clock < 0 else 0.0) if self.cyclic else min(max(clock, 0.0), end)
+        clock = clock % end if self.cyclic else min(max(clock, 0.0), end)
         m = min(int(np.searchsorted(k, clock, side="right")) - 1, n - 2)
         t = (m + (clock - k[m]) / (k[m + 1] - k[m])) / (n - 1)
-        idx, bw = bspline.basis(t, self.num_cp)
-        return (bw[:, None] * w[None, :]).reshape(-1) @ self._by_cp[idx].reshape(-1, self._by_cp.shape[2])
+        u = min(max(t, 0.0), 1.0) * (self.num_cp - 3)
+        seg = min(int(u), self.num_cp - 4)
+        x = u - seg
+        x2, x3 = x * x, x * x * x
+        bw = np.array([(1.0 - x) ** 3, 3.0 * x3 - 6.0 * x2 + 4.0, -3.0 * x3 + 3.0 * x2 + 3.0 * x + 1.0, x3])
+        return (bw * (1.0 / 6.0)) @ np.matmul(w, self._by_cp[seg : seg + 4])
 
     def duration(self, p: np.ndarray) -> float:
         """Clock duration ``K_N(p)`` of one cycle (or of the whole motion) at ``p``."""
@@ -291,23 +300,36 @@ class Verb:
         ``duration`` in seconds overrides it. The root starts at ``start = (x, z, heading)``.
         """
         p = self.point(p)
+        return self.render(self.control_points(p), self.keytimes(p), duration, cycles, fps, start)
+
+    def render(
+        self,
+        control_points: np.ndarray,
+        keytimes: np.ndarray,
+        duration: float | None = None,
+        cycles: float | None = None,
+        fps: float | None = None,
+        start: Sequence[float] = (0.0, 0.0, 0.0),
+    ) -> tuple[Clip, np.ndarray]:
+        """Motion from control points ``(NumCP, D)`` and keytimes ``(N,)`` (what :meth:`synthesize` does at ``p``)."""
+        k = np.asarray(keytimes, dtype=float)
         fps = self.fps if fps is None else float(fps)
-        k = self.keytimes(p)
+        if not (np.isfinite(fps) and fps > 0):
+            raise AdverbsError(f"fps must be a positive number, got {fps}")
         if duration is None:
             duration = k[-1] * (1.0 if cycles is None else float(cycles))
         if not (np.isfinite(duration) and duration > 0):
             raise AdverbsError(f"duration must be a positive number of seconds, got {duration}")
         frames = int(round(duration * fps)) + 1
         clock = np.arange(frames) / fps
-        coef = self.control_points(p)
         if not self.cyclic:
-            dofs = bspline.evaluate(coef, timewarp.generic_time(np.minimum(clock, k[-1]), k))
+            dofs = bspline.evaluate(control_points, timewarp.generic_time(np.minimum(clock, k[-1]), k))
         else:
             # Cycle index and time within it; a frame exactly at a cycle's end belongs to that cycle.
             cycle = np.maximum(np.ceil(clock / k[-1] - 1e-9) - 1, 0)
             local = clock - cycle * k[-1]
-            dofs = bspline.evaluate(coef, timewarp.generic_time(local, k))
-            dofs += _seam_offsets(coef, cycle, local, SEAM_BLEND * k[-1])
+            dofs = bspline.evaluate(control_points, timewarp.generic_time(local, k))
+            dofs += _seam_offsets(control_points, cycle, local, SEAM_BLEND * k[-1])
         return self.encoding.decode_clip(dofs, fps, start, name=self.name), k
 
     # ----- files -------------------------------------------------------------------------------

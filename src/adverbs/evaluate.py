@@ -1,0 +1,213 @@
+"""How good is a verb: leave-one-out against other interpolators, and whether adverbs are obeyed.
+
+Leave-one-out: each example in turn is left out, the rest predict its B-spline control points and
+keytimes at its adverb point, and the prediction is compared with it:
+
+* pose error — mean distance of the joints (body root down, in the character's heading frame so the
+  trajectory does not count twice) over 60 samples of generic time, millimetres;
+* adverb error — the predicted motion synthesized and measured like the examples, the error as a
+  percentage of the examples' range, averaged over the measured adverbs;
+* goal error — for verbs whose adverbs are a joint's position (reach), the distance from that joint
+  at its keytime to the goal, millimetres.
+
+Methods: ``nearest`` example; ``linear`` (the least-squares hyperplane alone); ``idw`` (inverse
+distance weighting, power 2); ``scipy-rbf`` (``scipy.interpolate.RBFInterpolator``, thin-plate spline,
+degree 1); ``ours`` (linear + cubic B-spline radial bases, eqs. 3–4). All work in the same scaled
+adverb coordinates and interpolate log keytime intervals.
+
+Obedience: our verb synthesized at every example, halfway between each example and its nearest
+neighbour, and 25% past each example (``c + 1.25 (p_i − c)``, ``c`` the examples' centre), each
+measured; the largest error per adverb as a percentage of the examples' range.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import RBFInterpolator
+
+from . import bspline
+from .fk import forward_kinematics
+from .measures import measure
+from .rbf import AdverbInterpolator
+from .verb import Verb
+
+METHODS = ("nearest", "linear", "idw", "scipy-rbf", "ours")
+SAMPLES = 60
+
+
+@dataclass
+class Evaluation:
+    """Results: per method, per example arrays; obedience per adverb and kind of point."""
+
+    verb: str
+    examples: list[str]
+    pose_mm: dict[str, np.ndarray]
+    adverb_pct: dict[str, np.ndarray]
+    goal_mm: dict[str, np.ndarray] | None
+    measured: list[str]
+    obedience: dict[str, np.ndarray]  # "at examples" / "between" / "25% past" → (M,) max % of range
+
+    def table(self) -> str:
+        """Markdown tables of the leave-one-out means and of obedience."""
+        head = "| method | pose error (mm) | adverb error (% of range) |" + (" goal error (mm) |" if self.goal_mm else "")
+        sep = "| --- | --- | --- |" + (" --- |" if self.goal_mm else "")
+        rows = [f"Leave-one-out over {len(self.examples)} examples of {self.verb} (means):", "", head, sep]
+        for m in METHODS:
+            row = f"| {m} | {np.mean(self.pose_mm[m]):.1f} | {np.mean(self.adverb_pct[m]):.2f} |"
+            if self.goal_mm:
+                row += f" {np.mean(self.goal_mm[m]):.1f} |"
+            rows.append(row)
+        rows += ["", f"Adverbs obeyed by {self.verb} (largest error, % of the examples' range):", ""]
+        rows.append("| adverb | " + " | ".join(self.obedience) + " |")
+        rows.append("| --- |" + " --- |" * len(self.obedience))
+        for i, name in enumerate(self.measured):
+            rows.append(f"| {name} | " + " | ".join(f"{v[i]:.2f}" for v in self.obedience.values()) + " |")
+        return "\n".join(rows)
+
+    def to_dict(self) -> dict:
+        out = {
+            "verb": self.verb,
+            "examples": self.examples,
+            "pose_mm": {m: v.tolist() for m, v in self.pose_mm.items()},
+            "adverb_pct": {m: v.tolist() for m, v in self.adverb_pct.items()},
+            "measured": self.measured,
+            "obedience_pct": {k: v.tolist() for k, v in self.obedience.items()},
+        }
+        if self.goal_mm:
+            out["goal_mm"] = {m: v.tolist() for m, v in self.goal_mm.items()}
+        return out
+
+    def plot(self, path: str) -> None:
+        """A PNG: per-example pose error of each method (bars), and the mean adverb error."""
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(13, 4.5), gridspec_kw={"width_ratios": [3, 1]})
+        x = np.arange(len(self.examples))
+        width = 0.8 / len(METHODS)
+        for k, m in enumerate(METHODS):
+            ax1.bar(x + (k - len(METHODS) / 2 + 0.5) * width, self.pose_mm[m], width, label=m)
+        ax1.set_xticks(x, self.examples, rotation=60, ha="right", fontsize=7)
+        ax1.set_ylabel("mean joint-position error (mm)")
+        ax1.set_title(f"{self.verb}: leave-one-out")
+        ax1.legend(fontsize=8)
+        ax2.bar(METHODS, [np.mean(self.adverb_pct[m]) for m in METHODS], color="C1")
+        ax2.set_ylabel("adverb error (% of range)")
+        ax2.tick_params(axis="x", rotation=45)
+        fig.tight_layout()
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+
+
+def _measured(verb: Verb) -> list[int]:
+    return [i for i, a in enumerate(verb.adverbs) if a.measure is not None]
+
+
+def measure_motion(verb: Verb, control_points: np.ndarray, keytimes: np.ndarray) -> np.ndarray:
+    """Measured adverb values ``(M,)`` of one cycle rendered from control points and keytimes."""
+    clip, k = verb.render(control_points, keytimes, fps=max(verb.fps, 60.0))
+    return np.array([measure(clip, k, verb.adverbs[i].measure) for i in _measured(verb)])
+
+
+def _pose_positions(verb: Verb, control_points: np.ndarray) -> np.ndarray:
+    """Joint positions ``(S, J', 3)`` in the heading frame at evenly spaced generic times."""
+    enc = verb.encoding
+    dofs = bspline.evaluate(control_points, np.linspace(0.0, 1.0, SAMPLES))
+    dofs[:, :3] = 0.0  # no travel, no turning: every frame in the character's own frame
+    gpos = forward_kinematics(enc.skeleton.parents, *enc.decode(dofs, verb.fps))[0]
+    body = [j for j in range(enc.skeleton.num_joints) if enc.body_root in enc.skeleton.ancestors(j)]
+    return gpos[:, body]
+
+
+def _predict(method: str, verb: Verb, keep: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Control points and keytimes at ``target`` from the examples ``keep``."""
+    pts = verb.points[keep]
+    logk = np.log(np.diff(verb.keytimes_table[keep], axis=1))
+    coef = verb.coefficients[keep]
+    values = np.concatenate([coef.reshape(len(keep), -1), logk], axis=1)
+    scale = np.where(np.ptp(pts, axis=0) > 0, np.ptp(pts, axis=0), 1.0)
+    q, qt = pts / scale, target / scale
+    if method == "nearest":
+        pred = values[np.argmin(np.linalg.norm(q - qt, axis=1))]
+    elif method == "idw":
+        w = 1.0 / np.maximum(np.linalg.norm(q - qt, axis=1), 1e-12) ** 2
+        pred = w @ values / w.sum()
+    elif method == "scipy-rbf":
+        pred = RBFInterpolator(q, values, kernel="thin_plate_spline", degree=1)(qt[None])[0]
+    else:
+        interp = AdverbInterpolator(pts)
+        if method == "linear":
+            lin = np.concatenate([[1.0], (target - interp.centre) / interp.scale])
+            pred = lin @ (interp._lin_pinv @ values)
+        else:
+            pred = interp.weights(target) @ values
+    n = coef.shape[1] * coef.shape[2]
+    cp = pred[:n].reshape(coef.shape[1:])
+    k = np.concatenate([[0.0], np.cumsum(np.exp(pred[n:]))])
+    return cp, k
+
+
+def evaluate(verb: Verb) -> Evaluation:
+    """Leave-one-out comparison and obedience for ``verb`` (see the module docstring)."""
+    e = len(verb.examples)
+    measured = _measured(verb)
+    ranges = np.ptp(verb.points, axis=0)
+    ranges = np.where(ranges > 0, ranges, 1.0)
+    goal_axes = [
+        i for i in measured if verb.adverbs[i].measure["kind"] == "joint_position"
+    ]
+    pose = {m: np.zeros(e) for m in METHODS}
+    adverb = {m: np.zeros(e) for m in METHODS}
+    goal = {m: np.zeros(e) for m in METHODS} if goal_axes else None
+    for i in range(e):
+        keep = np.array([j for j in range(e) if j != i])
+        truth = _pose_positions(verb, verb.coefficients[i])
+        for m in METHODS:
+            cp, k = _predict(m, verb, keep, verb.points[i])
+            pose[m][i] = 1000.0 * np.mean(np.linalg.norm(_pose_positions(verb, cp) - truth, axis=-1))
+            if measured:
+                got = measure_motion(verb, cp, k)
+                err = (got - verb.points[i, measured]) / ranges[measured]
+                adverb[m][i] = 100.0 * np.mean(np.abs(err))
+                if goal is not None:
+                    sel = [measured.index(a) for a in goal_axes]
+                    goal[m][i] = 1000.0 * np.linalg.norm(got[sel] - verb.points[i, goal_axes])
+    return Evaluation(
+        verb.name,
+        [x.name for x in verb.examples],
+        pose,
+        adverb,
+        goal,
+        [verb.adverbs[i].name for i in measured],
+        obedience(verb) if measured else {},
+    )
+
+
+def obedience_points(verb: Verb) -> dict[str, np.ndarray]:
+    """The points where obedience is checked: at, between (nearest pairs) and 25% past the examples."""
+    pts = verb.points
+    q = (pts - pts.mean(axis=0)) / np.where(np.ptp(pts, axis=0) > 0, np.ptp(pts, axis=0), 1.0)
+    d = np.linalg.norm(q[:, None] - q[None], axis=-1)
+    np.fill_diagonal(d, np.inf)
+    pairs = {tuple(sorted((i, int(np.argmin(d[i]))))) for i in range(len(pts))}
+    between = np.array([(pts[a] + pts[b]) / 2 for a, b in sorted(pairs)])
+    centre = pts.mean(axis=0)
+    return {"at examples": pts, "between": between, "25% past": centre + 1.25 * (pts - centre)}
+
+
+def obedience(verb: Verb) -> dict[str, np.ndarray]:
+    """Largest measured-minus-asked error per measured adverb, % of range, at each kind of point."""
+    measured = _measured(verb)
+    ranges = np.ptp(verb.points, axis=0)[measured]
+    out = {}
+    for kind, pts in obedience_points(verb).items():
+        errs = [
+            np.abs(measure_motion(verb, verb.control_points(p), verb.keytimes(p)) - p[measured]) / ranges
+            for p in pts
+        ]
+        out[kind] = 100.0 * np.max(errs, axis=0)
+    return out
