@@ -27,3 +27,22 @@ def cmu_walk():
 @pytest.fixture(scope="session")
 def bandai_walk():
     return read_bvh(BANDAI / "dataset-1_walk_normal_001.bvh")
+
+
+SPECS = Path(__file__).resolve().parent.parent / "specs"
+VERB_SPECS = ["cmu_walk", "bandai_styled_walk", "bandai_reach"]
+
+
+@pytest.fixture(scope="session")
+def verbs():
+    """The three real verbs, built once from their specs: name → (verb, examples)."""
+    from adverbs.spec import examples_from_spec, load_spec
+    from adverbs.verb import Verb
+
+    out = {}
+    for name in VERB_SPECS:
+        spec = load_spec(SPECS / f"{name}.toml")
+        examples, adverbs = examples_from_spec(spec)
+        verb = Verb.build(spec["name"], examples, adverbs, spec["num_cp"], spec["encoding"], spec["cyclic"])
+        out[name] = (verb, examples)
+    return out

@@ -32,9 +32,9 @@ def basis(t: np.ndarray, num_cp: int) -> tuple[np.ndarray, np.ndarray]:
     x = u - seg
     x2 = x * x
     x3 = x2 * x
-    w = np.stack(
-        [(1.0 - x) ** 3, 3.0 * x3 - 6.0 * x2 + 4.0, -3.0 * x3 + 3.0 * x2 + 3.0 * x + 1.0, x3], axis=-1
-    ) * (1.0 / 6.0)
+    w = np.stack([(1.0 - x) ** 3, 3.0 * x3 - 6.0 * x2 + 4.0, -3.0 * x3 + 3.0 * x2 + 3.0 * x + 1.0, x3], axis=-1) * (
+        1.0 / 6.0
+    )
     return seg.astype(np.int64)[..., None] + np.arange(4), w
 
 

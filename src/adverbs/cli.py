@@ -2,6 +2,10 @@
 
     adverbs info FILE.bvh [--json]
     adverbs convert IN.bvh OUT.bvh [--fps F] [--mirror] [--frames A:B]
+    adverbs build SPEC.toml -o VERB
+    adverbs describe VERB [--json]
+    adverbs synth VERB --adverb NAME=VALUE ... [--cycles N | --duration S] [--fps F] -o OUT.bvh
+    adverbs evaluate VERB [--png PLOT.png] [--json]
 
 Errors in the input print one line naming the file and line and exit with status 1.
 """
@@ -11,6 +15,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -19,6 +24,7 @@ from .bvh import read_bvh, write_bvh
 from .clip import Clip
 from .contacts import find_contacts
 from .errors import AdverbsError
+from .verb import Verb
 
 
 def info(clip: Clip, path: str | Path) -> dict:
@@ -108,30 +114,161 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--frames", type=_frame_range, metavar="A:B", help="keep frames A:B (before other changes)")
     p.add_argument("--mirror", action="store_true", help="swap left and right")
     p.add_argument("--fps", type=_positive, help="resample to this frame rate")
+    p = sub.add_parser("build", help="build a verb from a spec (TOML) and save it")
+    p.add_argument("spec", type=Path)
+    p.add_argument("-o", "--output", type=Path, required=True, help="where to write the verb")
+
+    p = sub.add_parser("describe", help="adverbs, examples, keytimes and sizes of a built verb")
+    p.add_argument("verb", type=Path)
+    p.add_argument("--json", action="store_true", help="print JSON instead of text")
+
+    p = sub.add_parser("synth", help="motion at an adverb point, written as BVH")
+    p.add_argument("verb", type=Path)
+    p.add_argument(
+        "--adverb",
+        action="append",
+        default=[],
+        type=_assignment,
+        metavar="NAME=VALUE",
+        help="an adverb value (repeat; adverbs not given take the examples' mean)",
+    )
+    length = p.add_mutually_exclusive_group()
+    length.add_argument("--cycles", type=_positive, help="how many cycles (default 1)")
+    length.add_argument("--duration", type=_positive, help="seconds of motion")
+    p.add_argument("--fps", type=_positive, help="frame rate (default: the examples')")
+    p.add_argument("-o", "--output", type=Path, required=True)
+
+    p = sub.add_parser("evaluate", help="leave-one-out against other interpolators, and adverb obedience")
+    p.add_argument("verb", type=Path)
+    p.add_argument("--png", type=Path, help="also plot to this PNG file")
+    p.add_argument("--json", action="store_true", help="print JSON instead of tables")
     return parser
+
+
+def _assignment(text: str) -> tuple[str, float]:
+    name, sep, value = text.partition("=")
+    if not sep or not name:
+        raise argparse.ArgumentTypeError(f"expected NAME=VALUE, got {text!r}")
+    try:
+        number = float(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{name}: {value!r} is not a number") from None
+    if not np.isfinite(number):
+        raise argparse.ArgumentTypeError(f"{name}: {value!r} is not a finite number")
+    return name, number
+
+
+def describe(verb: Verb) -> dict:
+    """What ``adverbs describe`` reports, as plain data."""
+    lo, hi = verb.points.min(axis=0), verb.points.max(axis=0)
+    return {
+        "name": verb.name,
+        "cyclic": verb.cyclic,
+        "num_cp": verb.num_cp,
+        "dofs": verb.encoding.num_dofs,
+        "encoding": verb.encoding.kind,
+        "num_keytimes": verb.num_keytimes,
+        "fps": verb.fps,
+        "skeleton": {"joints": list(verb.skeleton.names), "units": verb.skeleton.units},
+        "adverbs": [
+            {"name": a.name, "unit": a.unit, "measure": a.measure, "min": float(lo[i]), "max": float(hi[i])}
+            for i, a in enumerate(verb.adverbs)
+        ],
+        "examples": [
+            {
+                "name": x.name,
+                "adverbs": {a.name: float(verb.points[i, k]) for k, a in enumerate(verb.adverbs)},
+                "keytimes": [float(v) for v in verb.keytimes_table[i]],
+                "source": x.source,
+                "part": x.part,
+                "fit_error_mm": round(1000.0 * x.fit_error, 3),
+            }
+            for i, x in enumerate(verb.examples)
+        ],
+    }
+
+
+def _print_describe(d: dict) -> None:
+    kind = "cyclic" if d["cyclic"] else "one-shot"
+    print(f"verb {d['name']}: {kind}, {len(d['examples'])} examples, {len(d['adverbs'])} adverbs")
+    print(f"  {d['dofs']} DOFs ({d['encoding']}), NumCP {d['num_cp']}, {d['num_keytimes']} keytimes, {d['fps']:g} fps")
+    print("  adverbs:")
+    for a in d["adverbs"]:
+        how = f"measured: {a['measure']['kind']}" if a["measure"] else "given by hand"
+        print(f"    {a['name']:<10} [{a['unit']}] {a['min']:.3f} .. {a['max']:.3f}  ({how})")
+    print("  examples:")
+    for x in d["examples"]:
+        values = ", ".join(f"{k}={v:.3f}" for k, v in x["adverbs"].items())
+        keys = ", ".join(f"{k:.3f}" for k in x["keytimes"])
+        print(f"    {x['name']:<42} {values}")
+        print(f"      {x['source']} ({x['part']}); keytimes {keys} s; fit error {x['fit_error_mm']:.1f} mm")
+
+
+def _run(args: argparse.Namespace) -> None:
+    if args.command == "info":
+        clip = read_bvh(args.file)
+        report = info(clip, args.file)
+        if args.json:
+            print(json.dumps(report, indent=2))
+        else:
+            _print_info(report)
+    elif args.command == "convert":
+        clip = read_bvh(args.input)
+        if args.frames is not None:
+            clip = clip.frames(*args.frames)
+        if args.mirror:
+            clip = clip.mirror()
+        if args.fps is not None:
+            clip = clip.resample(args.fps)
+        args.output.parent.mkdir(parents=True, exist_ok=True)
+        write_bvh(clip, args.output)
+        print(f"wrote {args.output}: {clip.num_frames} frames at {clip.fps:g} fps")
+    elif args.command == "build":
+        from .spec import build_from_spec
+
+        start = time.perf_counter()
+        verb = build_from_spec(args.spec)
+        seconds = time.perf_counter() - start
+        verb.save(args.output)
+        worst = max(x.fit_error for x in verb.examples)
+        print(
+            f"built {verb.name}: {len(verb.examples)} examples, {len(verb.adverbs)} adverbs, "
+            f"{verb.encoding.num_dofs} DOFs x {verb.num_cp} control points in {seconds:.2f} s; "
+            f"largest B-spline fit error {1000 * worst:.1f} mm; wrote {args.output}"
+        )
+    elif args.command == "describe":
+        d = describe(Verb.load(args.verb))
+        if args.json:
+            print(json.dumps(d, indent=2))
+        else:
+            _print_describe(d)
+    elif args.command == "synth":
+        verb = Verb.load(args.verb)
+        p = verb.point(dict(args.adverb))
+        clip, k = verb.synthesize(p, duration=args.duration, cycles=args.cycles, fps=args.fps)
+        args.output.parent.mkdir(parents=True, exist_ok=True)
+        write_bvh(clip, args.output)
+        values = ", ".join(f"{n}={v:g}" for n, v in zip(verb.adverb_names, p))
+        print(f"wrote {args.output}: {verb.name} at {values}; {clip.num_frames} frames, cycle {k[-1]:.3f} s")
+    elif args.command == "evaluate":
+        from .evaluate import evaluate
+
+        result = evaluate(Verb.load(args.verb))
+        if args.json:
+            print(json.dumps(result.to_dict(), indent=2))
+        else:
+            print(result.table())
+        if args.png is not None:
+            args.png.parent.mkdir(parents=True, exist_ok=True)
+            result.plot(str(args.png))
+            if not args.json:
+                print(f"\nplot: {args.png}")
 
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
-        if args.command == "info":
-            clip = read_bvh(args.file)
-            report = info(clip, args.file)
-            if args.json:
-                print(json.dumps(report, indent=2))
-            else:
-                _print_info(report)
-        elif args.command == "convert":
-            clip = read_bvh(args.input)
-            if args.frames is not None:
-                clip = clip.frames(*args.frames)
-            if args.mirror:
-                clip = clip.mirror()
-            if args.fps is not None:
-                clip = clip.resample(args.fps)
-            args.output.parent.mkdir(parents=True, exist_ok=True)
-            write_bvh(clip, args.output)
-            print(f"wrote {args.output}: {clip.num_frames} frames at {clip.fps:g} fps")
+        _run(args)
     except AdverbsError as e:
         print(f"adverbs: error: {e}", file=sys.stderr)
         return 1

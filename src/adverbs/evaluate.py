@@ -51,7 +51,9 @@ class Evaluation:
 
     def table(self) -> str:
         """Markdown tables of the leave-one-out means and of obedience."""
-        head = "| method | pose error (mm) | adverb error (% of range) |" + (" goal error (mm) |" if self.goal_mm else "")
+        head = "| method | pose error (mm) | adverb error (% of range) |" + (
+            " goal error (mm) |" if self.goal_mm else ""
+        )
         sep = "| --- | --- | --- |" + (" --- |" if self.goal_mm else "")
         rows = [f"Leave-one-out over {len(self.examples)} examples of {self.verb} (means):", "", head, sep]
         for m in METHODS:
@@ -139,7 +141,7 @@ def _predict(method: str, verb: Verb, keep: np.ndarray, target: np.ndarray) -> t
     elif method == "scipy-rbf":
         pred = RBFInterpolator(q, values, kernel="thin_plate_spline", degree=1)(qt[None])[0]
     else:
-        interp = AdverbInterpolator(pts)
+        interp = AdverbInterpolator(pts, linear=np.array([not verb.examples[j].refine for j in keep]))
         if method == "linear":
             lin = np.concatenate([[1.0], (target - interp.centre) / interp.scale])
             pred = lin @ (interp._lin_pinv @ values)
@@ -157,9 +159,7 @@ def evaluate(verb: Verb) -> Evaluation:
     measured = _measured(verb)
     ranges = np.ptp(verb.points, axis=0)
     ranges = np.where(ranges > 0, ranges, 1.0)
-    goal_axes = [
-        i for i in measured if verb.adverbs[i].measure["kind"] == "joint_position"
-    ]
+    goal_axes = [i for i in measured if verb.adverbs[i].measure["kind"] == "joint_position"]
     pose = {m: np.zeros(e) for m in METHODS}
     adverb = {m: np.zeros(e) for m in METHODS}
     goal = {m: np.zeros(e) for m in METHODS} if goal_axes else None
@@ -206,8 +206,7 @@ def obedience(verb: Verb) -> dict[str, np.ndarray]:
     out = {}
     for kind, pts in obedience_points(verb).items():
         errs = [
-            np.abs(measure_motion(verb, verb.control_points(p), verb.keytimes(p)) - p[measured]) / ranges
-            for p in pts
+            np.abs(measure_motion(verb, verb.control_points(p), verb.keytimes(p)) - p[measured]) / ranges for p in pts
         ]
         out[kind] = 100.0 * np.max(errs, axis=0)
     return out

@@ -5,7 +5,8 @@ For values ``b_i`` given at example points ``p_i`` (i = 1..E):
 1. Linear: ``A(p) = [1, q_1, …, q_A]`` with ``q = (p − centre) / scale``. Least squares over the
    examples gives ``a = A⁺ b``; the residuals ``b̃ = b − A a`` remain.
 2. Radial: ``R_i(p) = B(‖q − q_i‖ / α_i)`` with ``B`` the cubic B-spline profile (support radius 2,
-   ``B(0) = 2/3``, C²) and ``α_i`` the distance from ``q_i`` to its nearest other example. Solve
+   ``B(0) = 2/3``, C²) and ``α_i`` the distance from ``q_i`` to its nearest other example (at most one
+   range of the examples, so an isolated example does not reach across the whole space). Solve
    ``M r = b̃`` with ``M[k, i] = R_i(p_k)``.
 
 Then ``b(p) = Σ_i r_i R_i(p) + Σ_l a_l A_l(p)``, which reproduces every example exactly, extrapolates
@@ -24,6 +25,9 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import AdverbsError
+
+
+ALPHA_CAP = 1.0  # the largest radial scale α, in ranges of the examples (scaled adverb units)
 
 
 def bspline_profile(r: np.ndarray) -> np.ndarray:
@@ -47,10 +51,20 @@ class AdverbInterpolator:
     names : sequence of str, optional
         Example names, for error messages.
     scale : (A,), optional
-        Units of each axis for distances; default: the examples' range on that axis.
+        Units of each axis for distances; default: the range on that axis of the examples in ``linear``.
+    linear : (E,) bool, optional
+        Which examples the linear part is fitted to (default all). The others are *refinements*: they
+        only enter the radial part, so they change the verb near themselves and nowhere else — moving
+        one, even far away, leaves every point outside its old and new neighbourhoods exactly as it was.
     """
 
-    def __init__(self, points: np.ndarray, names: list[str] | None = None, scale: np.ndarray | None = None):
+    def __init__(
+        self,
+        points: np.ndarray,
+        names: list[str] | None = None,
+        scale: np.ndarray | None = None,
+        linear: np.ndarray | None = None,
+    ):
         points = np.asarray(points, dtype=float)
         if points.ndim != 2 or points.shape[0] < 2:
             raise AdverbsError(f"need at least two examples as points (E, A), got shape {points.shape}")
@@ -59,13 +73,17 @@ class AdverbInterpolator:
         bad = ~np.all(np.isfinite(points), axis=1)
         if bad.any():
             raise AdverbsError(f"example {names[int(np.argmax(bad))]!r} has a non-finite adverb value")
+        linear = np.ones(e, dtype=bool) if linear is None else np.asarray(linear, dtype=bool)
+        if linear.shape != (e,) or not linear.any():
+            raise AdverbsError("at least one example must take part in the linear fit")
         if scale is None:
-            scale = np.ptp(points, axis=0)
+            scale = np.ptp(points[linear], axis=0) if linear.sum() > 1 else np.ptp(points, axis=0)
             scale = np.where(scale > 0, scale, 1.0)
         self.points = points
         self.names = names
+        self.linear = linear
         self.scale = np.asarray(scale, dtype=float)
-        self.centre = points.mean(axis=0)
+        self.centre = points[linear].mean(axis=0)
         q = (points - self.centre) / self.scale
         dist = np.linalg.norm(q[:, None] - q[None], axis=-1)
         np.fill_diagonal(dist, np.inf)
@@ -75,10 +93,13 @@ class AdverbInterpolator:
                 f"examples {names[i]!r} and {names[j]!r} are at the same adverb point {points[i].tolist()}; "
                 "examples must be at distinct points"
             )
-        self.alpha = dist.min(axis=1)  # (E,)
+        # The paper's α: distance to the nearest other example. Capped at one range of the examples so
+        # that an outlier's basis stays local instead of growing with its isolation.
+        self.alpha = np.minimum(dist.min(axis=1), ALPHA_CAP)  # (E,)
         self._q = q
         lin = self._linear_basis(q)  # (E, A+1)
-        self._lin_pinv = np.linalg.pinv(lin)  # (A+1, E)
+        self._lin_pinv = np.zeros((a + 1, e))  # (A+1, E): refinements get no say in the plane
+        self._lin_pinv[:, linear] = np.linalg.pinv(lin[linear])
         m = bspline_profile(np.linalg.norm(q[:, None] - q[None], axis=-1) / self.alpha[None, :])  # M[k, i] = R_i(p_k)
         self._m = m
         self._projector = np.eye(e) - lin @ self._lin_pinv  # I − A A⁺

@@ -22,6 +22,7 @@ file = "../data/bandai/dataset-1_walk_happy_001.bvh"
 cut = { foot = "left", strike = 1, steps = 2 }    # or strike = "most_turning"
 mirror = false
 adverbs = { mood = 1.0 }
+refine = false                # true: a local refinement, left out of the linear fit (see rbf)
 ```
 
 An example's part is ``cut`` (heel strike ``strike`` of ``foot``, ``steps`` steps; its keytimes are
@@ -50,7 +51,7 @@ from .verb import Adverb, Example, Verb
 
 _TOP = {"name", "encoding", "num_cp", "cyclic", "skeleton", "cut", "adverbs", "examples", "description"}
 _ADVERB = {"name", "unit", "measure", "description"}
-_EXAMPLE = {"name", "file", "cut", "frames", "keytimes", "mirror", "adverbs", "description"}
+_EXAMPLE = {"name", "file", "cut", "frames", "keytimes", "mirror", "adverbs", "refine", "description"}
 _CUT = {"foot", "strike", "steps"}
 
 
@@ -176,8 +177,9 @@ def examples_from_spec(spec: dict[str, Any]) -> tuple[list[Example], list[Adverb
                     path, f"{file.name} is on a different skeleton from example {pending[0][0]['name']!r}", name, "file"
                 )
         mirror = ex.get("mirror", False)
-        if not isinstance(mirror, bool):
-            raise SpecError(path, "must be true or false", name, "mirror")
+        for flag in ("mirror", "refine"):
+            if not isinstance(ex.get(flag, False), bool):
+                raise SpecError(path, "must be true or false", name, flag)
         if mirror:
             try:
                 clip = clip.mirror()
@@ -220,16 +222,29 @@ def examples_from_spec(spec: dict[str, Any]) -> tuple[list[Example], list[Adverb
             field = f"adverbs.{a.name}"
             if a.measure is not None:
                 if a.name in given:
-                    raise SpecError(path, "this adverb is measured from the motion; do not also give it", ex["name"], field)
+                    raise SpecError(
+                        path, "this adverb is measured from the motion; do not also give it", ex["name"], field
+                    )
                 point.append(measure(part, keytimes, a.measure))
                 continue
             if a.name not in given:
-                raise SpecError(path, "missing: this adverb has no measure, so every example must give it", ex["name"], field)
+                raise SpecError(
+                    path, "missing: this adverb has no measure, so every example must give it", ex["name"], field
+                )
             value = given[a.name]
             if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
                 raise SpecError(path, f"must be a finite number, got {value!r}", ex["name"], field)
             point.append(float(value))
-        examples.append(Example(ex["name"], part, keytimes, np.array(point), source=ex["file"], part=desc))
+        for other in examples:
+            if np.allclose(other.point, point, rtol=1e-12, atol=1e-12):
+                raise SpecError(
+                    path,
+                    f"examples {other.name!r} and {ex['name']!r} are at the same adverb point {point}; "
+                    "examples must be at distinct points",
+                    ex["name"],
+                    "adverbs",
+                )
+        examples.append(Example(ex["name"], part, keytimes, np.array(point), ex["file"], desc, ex.get("refine", False)))
     return examples, adverbs
 
 
@@ -266,7 +281,9 @@ def _cut(path: Path, ex: dict, clip: Clip, spec: dict) -> tuple[Clip, np.ndarray
             part, keytimes = cut_steps(clip, foot, strike, steps, contacts)
             k = strike
         else:
-            raise SpecError(path, f"must be a heel-strike index ≥ 0 or \"most_turning\", got {strike!r}", name, "cut.strike")
+            raise SpecError(
+                path, f'must be a heel-strike index ≥ 0 or "most_turning", got {strike!r}', name, "cut.strike"
+            )
     except SpecError:
         raise
     except AdverbsError as e:
@@ -300,7 +317,7 @@ def _given_keytimes(path: Path, ex: dict, part: Clip) -> np.ndarray:
     if isinstance(given, dict):
         extra = sorted(set(given) - {"peak"})
         if extra or "peak" not in given:
-            raise SpecError(path, "takes { peak = \"JOINT\" }", name, "keytimes")
+            raise SpecError(path, 'takes { peak = "JOINT" }', name, "keytimes")
         try:
             j = part.skeleton.index(given["peak"])
         except AdverbsError as e:
@@ -308,7 +325,9 @@ def _given_keytimes(path: Path, ex: dict, part: Clip) -> np.ndarray:
         height = part.global_positions()[:, j, 1]
         peak = int(np.argmax(height))
         if peak == 0 or peak == part.num_frames - 1:
-            raise SpecError(path, f"{given['peak']} is highest at the first or last frame: no peak inside", name, "keytimes.peak")
+            raise SpecError(
+                path, f"{given['peak']} is highest at the first or last frame: no peak inside", name, "keytimes.peak"
+            )
         return np.array([0.0, peak / part.fps, part.duration])
     if not isinstance(given, list) or not all(isinstance(v, int | float) and not isinstance(v, bool) for v in given):
         raise SpecError(path, f"must be a list of seconds, got {given!r}", name, "keytimes")
@@ -317,10 +336,18 @@ def _given_keytimes(path: Path, ex: dict, part: Clip) -> np.ndarray:
         raise SpecError(path, "needs at least two finite keytimes", name, "keytimes")
     if np.any(np.diff(k) <= 0):
         i = int(np.argmax(np.diff(k) <= 0))
-        raise SpecError(path, f"out of order: keytime {i + 2} ({k[i + 1]} s) is not after keytime {i + 1} ({k[i]} s)", name, "keytimes")
+        raise SpecError(
+            path,
+            f"out of order: keytime {i + 2} ({k[i + 1]} s) is not after keytime {i + 1} ({k[i]} s)",
+            name,
+            "keytimes",
+        )
     if k[0] != 0 or abs(k[-1] - part.duration) > 0.5 / part.fps:
         raise SpecError(
-            path, f"must start at 0 and end at the part's duration {part.duration:.4f} s, got {k[0]} .. {k[-1]}", name, "keytimes"
+            path,
+            f"must start at 0 and end at the part's duration {part.duration:.4f} s, got {k[0]} .. {k[-1]}",
+            name,
+            "keytimes",
         )
     k[-1] = part.duration
     return k

@@ -24,7 +24,9 @@ def check_keytimes(keytimes: np.ndarray, what: str = "keytimes") -> np.ndarray:
         raise AdverbsError(f"{what}: keytimes must be finite numbers")
     if np.any(np.diff(k, axis=-1) <= 0):
         bad = int(np.argmax(np.any(np.diff(k.reshape(-1, k.shape[-1]), axis=-1) <= 0, axis=0)))
-        raise AdverbsError(f"{what}: keytimes must be strictly increasing (keytime {bad + 2} is not after keytime {bad + 1})")
+        raise AdverbsError(
+            f"{what}: keytimes must be strictly increasing (keytime {bad + 2} is not after keytime {bad + 1})"
+        )
     return k
 
 

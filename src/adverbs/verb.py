@@ -63,6 +63,7 @@ class Example:
     point: np.ndarray
     source: str = ""
     part: str = ""
+    refine: bool = False  # a local refinement: radial part only, not in the linear fit
 
 
 @dataclass(frozen=True)
@@ -73,6 +74,7 @@ class ExampleRecord:
     source: str
     part: str
     fit_error: float = field(default=0.0)  # largest joint-position error of the B-spline fit, metres
+    refine: bool = False
 
 
 class Verb:
@@ -112,7 +114,9 @@ class Verb:
             raise AdverbsError(f"verb {name!r}: tables disagree on the number of examples or adverbs")
         if self.coefficients.shape[0] != e or self.coefficients.shape[2] != encoding.num_dofs:
             raise AdverbsError(f"verb {name!r}: coefficient table {self.coefficients.shape} does not fit")
-        self.interpolator = AdverbInterpolator(self.points, [x.name for x in self.examples])
+        self.interpolator = AdverbInterpolator(
+            self.points, [x.name for x in self.examples], linear=np.array([not x.refine for x in self.examples])
+        )
         self._log_intervals = np.log(np.diff(self.keytimes_table, axis=1))  # (E, N-1)
         self._by_cp = np.ascontiguousarray(self.coefficients.transpose(1, 0, 2))  # (NumCP, E, D)
         self._cache_p: np.ndarray | None = None
@@ -195,7 +199,7 @@ class Verb:
             coefficients[i], _ = bspline.fit(t, dofs, num_cp)
             fitted = enc.decode(bspline.evaluate(coefficients[i], t), ex.clip.fps, enc.start(ex.clip))
             err = _body_error(enc, ex.clip, fitted)
-            records.append(ExampleRecord(ex.name, ex.source, ex.part, err))
+            records.append(ExampleRecord(ex.name, ex.source, ex.part, err, ex.refine))
         keytimes = np.stack([np.asarray(ex.keytimes, dtype=float) for ex in examples])
         keytimes[:, -1] = [ex.clip.duration for ex in examples]
         points = np.stack([np.asarray(ex.point, dtype=float) for ex in examples])
@@ -350,7 +354,8 @@ class Verb:
             "num_cp": self.num_cp,
             "adverbs": [{"name": a.name, "unit": a.unit, "measure": a.measure} for a in self.adverbs],
             "examples": [
-                {"name": x.name, "source": x.source, "part": x.part, "fit_error": x.fit_error} for x in self.examples
+                {"name": x.name, "source": x.source, "part": x.part, "fit_error": x.fit_error, "refine": x.refine}
+                for x in self.examples
             ],
             "encoding": {
                 "kind": enc.kind,
@@ -442,7 +447,9 @@ class Verb:
                 float(e["heading_smoothing"]),
             )
             adverbs = [Adverb(a["name"], a.get("unit", ""), a.get("measure")) for a in meta["adverbs"]]
-            examples = [ExampleRecord(x["name"], x["source"], x["part"], float(x["fit_error"])) for x in meta["examples"]]
+            examples = [
+                ExampleRecord(x["name"], x["source"], x["part"], float(x["fit_error"])) for x in meta["examples"]
+            ]
             return cls(
                 meta["name"],
                 enc,

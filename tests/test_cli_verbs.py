@@ -1,0 +1,64 @@
+"""The verb commands, run as a user runs them."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+from conftest import SPECS
+from test_cli import run
+
+from adverbs import read_bvh
+from adverbs.contacts import find_contacts
+from adverbs.measures import measure
+
+
+def test_build_describe_synth_evaluate(tmp_path):
+    verb = tmp_path / "walk.verb"
+    r = run("build", SPECS / "cmu_walk.toml", "-o", verb)
+    assert r.returncode == 0, r.stderr
+    assert "built cmu-walk: 12 examples" in r.stdout and verb.exists()
+
+    r = run("describe", verb, "--json")
+    assert r.returncode == 0, r.stderr
+    d = json.loads(r.stdout)
+    assert [a["name"] for a in d["adverbs"]] == ["speed", "turn"]
+    assert d["adverbs"][0]["unit"] == "m/s" and d["adverbs"][1]["unit"] == "deg/s"
+    assert len(d["examples"]) == 12 and set(d["examples"][0]["adverbs"]) == {"speed", "turn"}
+    assert d["num_keytimes"] == 3 and d["num_cp"] == 16 and d["dofs"] > 50
+    assert run("describe", verb).stdout.startswith("verb cmu-walk: cyclic, 12 examples")
+
+    out = tmp_path / "walk.bvh"
+    r = run("synth", verb, "--adverb", "speed=1.5", "--adverb", "turn=-30", "--cycles", "3", "-o", out)
+    assert r.returncode == 0, r.stderr
+    clip = read_bvh(out)
+    assert clip.skeleton.names == tuple(d["skeleton"]["joints"])
+    # Three cycles: the feet keep alternating, and the motion turns right at about the asked rate.
+    steps = [f for _, f in find_contacts(clip).steps()]
+    assert len(steps) >= 5 and all(a != b for a, b in zip(steps, steps[1:]))
+    assert measure(clip, np.array([0.0, clip.duration]), {"kind": "turn_rate"}) < -20
+
+    r = run("synth", verb, "--adverb", "speed=1.2", "--duration", "2.5", "--fps", "60", "-o", out)
+    assert r.returncode == 0 and read_bvh(out).num_frames == 151
+
+    png = tmp_path / "eval.png"
+    r = run("evaluate", verb, "--png", png)
+    assert r.returncode == 0, r.stderr
+    for method in ("nearest", "linear", "idw", "scipy-rbf", "ours"):
+        assert f"| {method} |" in r.stdout
+    assert "| speed |" in r.stdout and "25% past" in r.stdout
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_verb_command_errors(tmp_path):
+    r = run("build", tmp_path / "none.toml", "-o", tmp_path / "x.verb")
+    assert r.returncode == 1 and "no such spec file" in r.stderr
+    verb = tmp_path / "walk.verb"
+    assert run("build", SPECS / "cmu_walk.toml", "-o", verb).returncode == 0
+    r = run("synth", verb, "--adverb", "mood=1", "-o", tmp_path / "x.bvh")
+    assert r.returncode == 1 and "no adverb 'mood'" in r.stderr
+    r = run("synth", verb, "--adverb", "speed=nan", "-o", tmp_path / "x.bvh")
+    assert r.returncode == 2 and "finite" in r.stderr
+    (tmp_path / "junk.verb").write_text("junk")
+    r = run("describe", tmp_path / "junk.verb")
+    assert r.returncode == 1 and "damaged" in r.stderr

@@ -1,0 +1,161 @@
+"""Verb specs: every kind of mistake names the file, the example and the field."""
+
+from __future__ import annotations
+
+import pytest
+from conftest import BANDAI, CMU, SPECS
+
+from adverbs.spec import SpecError, build_from_spec, load_spec
+
+HEAD = """
+name = "test-walk"
+num_cp = 10
+cut = { foot = "left", steps = 2 }
+
+[[adverbs]]
+name = "turn"
+measure = "turn_rate"
+
+[[adverbs]]
+name = "mood"
+"""
+
+
+def example(name, file, extra=""):
+    return f'\n[[examples]]\nname = "{name}"\nfile = "{file}"\n{extra}\n'
+
+
+def spec(tmp_path, *examples, head=HEAD):
+    path = tmp_path / "walk.toml"
+    path.write_text(head + "".join(examples))
+    return path
+
+
+def fails(path, example, field, reason):
+    with pytest.raises(SpecError) as info:
+        build_from_spec(path)
+    err = info.value
+    assert err.path == str(path) and err.example == example and err.field == field, str(err)
+    assert reason in err.reason, err.reason
+    assert str(path) in str(err)
+    return err
+
+
+WALK = CMU / "16_15_walk.bvh"
+FAST = CMU / "16_21_walk.bvh"
+VEER = CMU / "16_11_walk_veer_left.bvh"
+
+
+def test_a_good_spec_builds(tmp_path):
+    path = spec(
+        tmp_path, example("a", WALK, "adverbs = { mood = 0.0 }"), example("b", FAST, "adverbs = { mood = 1.0 }")
+    )
+    verb = build_from_spec(path)
+    assert verb.adverb_names == ("turn", "mood") and len(verb.examples) == 2
+
+
+def test_missing_file(tmp_path):
+    path = spec(
+        tmp_path, example("a", WALK, "adverbs = { mood = 0 }"), example("b", CMU / "nope.bvh", "adverbs = { mood = 1 }")
+    )
+    fails(path, "b", "file", "no such file")
+
+
+def test_examples_on_different_skeletons(tmp_path):
+    bandai = BANDAI / "dataset-1_walk_happy_001.bvh"
+    path = spec(tmp_path, example("a", WALK, "adverbs = { mood = 0 }"), example("b", bandai, "adverbs = { mood = 1 }"))
+    fails(path, "b", "file", "different skeleton from example 'a'")
+
+
+def test_different_keytime_counts(tmp_path):
+    path = spec(
+        tmp_path,
+        example("a", WALK, "adverbs = { mood = 0 }"),
+        example("b", FAST, "adverbs = { mood = 1 }\ncut = { steps = 3 }"),
+    )
+    fails(path, "b", "keytimes", "has 4 keytimes")
+
+
+def test_keytimes_out_of_order(tmp_path):
+    path = spec(
+        tmp_path,
+        example("a", WALK, "adverbs = { mood = 0 }\nframes = [0, 31]\nkeytimes = [0.0, 0.6, 0.4, 1.0]"),
+        example("b", FAST, "adverbs = { mood = 1 }\nframes = [0, 31]\nkeytimes = [0.0, 0.4, 0.6, 1.0]"),
+    )
+    fails(path, "a", "keytimes", "out of order: keytime 3")
+
+
+def test_two_examples_at_the_same_point(tmp_path):
+    path = spec(tmp_path, example("a", WALK, "adverbs = { mood = 0 }"), example("b", WALK, "adverbs = { mood = 0 }"))
+    fails(path, "b", "adverbs", "examples 'a' and 'b' are at the same adverb point")
+
+
+def test_nan_adverb_value(tmp_path):
+    path = spec(tmp_path, example("a", WALK, "adverbs = { mood = 0 }"), example("b", FAST, "adverbs = { mood = nan }"))
+    fails(path, "b", "adverbs.mood", "finite number")
+
+
+def test_missing_adverb_value(tmp_path):
+    path = spec(tmp_path, example("a", WALK, "adverbs = { mood = 0 }"), example("b", FAST))
+    fails(path, "b", "adverbs.mood", "missing")
+
+
+def test_measured_adverb_given_by_hand(tmp_path):
+    path = spec(
+        tmp_path, example("a", WALK, "adverbs = { mood = 0, turn = 3 }"), example("b", FAST, "adverbs = { mood = 1 }")
+    )
+    fails(path, "a", "adverbs.turn", "measured")
+
+
+def test_unknown_measure(tmp_path):
+    head = HEAD.replace('measure = "turn_rate"', 'measure = "happiness"')
+    path = spec(
+        tmp_path, example("a", WALK, "adverbs = { mood = 0 }"), example("b", FAST, "adverbs = { mood = 1 }"), head=head
+    )
+    fails(path, None, "adverbs.turn.measure", "unknown measure 'happiness'")
+
+
+def test_measure_naming_a_missing_joint(tmp_path):
+    head = HEAD.replace(
+        'measure = "turn_rate"', 'measure = { kind = "joint_position", joint = "Hand_R", axis = "y", keytime = 1 }'
+    )
+    path = spec(
+        tmp_path, example("a", WALK, "adverbs = { mood = 0 }"), example("b", FAST, "adverbs = { mood = 1 }"), head=head
+    )
+    fails(path, None, "adverbs.turn.measure", "joint 'Hand_R'")
+
+
+def test_unknown_fields_and_bad_values(tmp_path):
+    path = spec(
+        tmp_path,
+        example("a", WALK, "adverbs = { mood = 0 }\nmirorr = true"),
+        example("b", FAST, "adverbs = { mood = 1 }"),
+    )
+    fails(path, "a", "mirorr", "unknown field")
+    path = spec(
+        tmp_path,
+        example("a", WALK, "adverbs = { mood = 0 }\ncut = { strike = 9 }"),
+        example("b", FAST, "adverbs = { mood = 1 }"),
+    )
+    fails(path, "a", "cut", "heel strike 9")
+    path = spec(
+        tmp_path, example("a", WALK, "adverbs = { mood = 0, style = 2 }"), example("b", FAST, "adverbs = { mood = 1 }")
+    )
+    fails(path, "a", "adverbs.style", "no such adverb")
+    path = spec(tmp_path, example("a", WALK, "adverbs = { mood = 0 }"), head=HEAD)
+    fails(path, None, "examples", "at least two")
+    path = tmp_path / "broken.toml"
+    path.write_text("name = [unclosed")
+    fails(path, None, None, "not valid TOML")
+    path = spec(
+        tmp_path,
+        example("a", WALK, "adverbs = { mood = 0 }"),
+        example("b", VEER, "adverbs = { mood = 1 }"),
+        head=HEAD.replace("num_cp = 10", 'num_cp = 10\nencoding = "matrix"'),
+    )
+    fails(path, None, "encoding", "unknown encoding")
+
+
+def test_the_shipped_specs_parse():
+    for path in sorted(SPECS.glob("*.toml")):
+        assert load_spec(path)["examples"]

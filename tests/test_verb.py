@@ -1,0 +1,250 @@
+"""Verbs built from real capture: exact at examples, fast path = reference, keytimes, files, adverbs obeyed."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import zipfile
+
+import numpy as np
+import pytest
+from conftest import VERB_SPECS
+
+from adverbs import AdverbsError
+from adverbs.evaluate import _pose_positions, obedience
+from adverbs.measures import measure
+from adverbs.verb import Verb
+
+
+def _body(verb):
+    skel = verb.skeleton
+    return [j for j in range(skel.num_joints) if verb.encoding.body_root in skel.ancestors(j)]
+
+
+def test_the_three_verbs_are_what_their_specs_say(verbs):
+    cmu, _ = verbs["cmu_walk"]
+    assert cmu.adverb_names == ("speed", "turn") and len(cmu.examples) >= 10 and cmu.cyclic
+    styled, _ = verbs["bandai_styled_walk"]
+    assert styled.adverb_names == ("valence", "energy", "turn") and len(styled.examples) >= 11
+    reach, _ = verbs["bandai_reach"]
+    assert reach.adverb_names == ("hand_x", "hand_y", "hand_z") and len(reach.examples) == 20 and not reach.cyclic
+    # Turning really is in the examples: the CMU turns span well over 100 deg/s.
+    assert np.ptp(cmu.points[:, 1]) > 100 and np.ptp(styled.points[:, 2]) > 100
+
+
+@pytest.mark.parametrize("name", VERB_SPECS)
+def test_reproduces_every_example(verbs, name):
+    verb, examples = verbs[name]
+    body = _body(verb)
+    for i, ex in enumerate(examples):
+        # The interpolated control points and keytimes at p_i are the example's own.
+        assert np.abs(verb.control_points(ex.point) - verb.coefficients[i]).max() <= 1e-9
+        assert np.abs(verb.keytimes(ex.point) - verb.keytimes_table[i]).max() <= 1e-9
+        # The synthesized motion matches the capture within the reported B-spline fit error.
+        clip, _ = verb.synthesize(ex.point, fps=ex.clip.fps, start=verb.encoding.start(ex.clip))
+        assert clip.num_frames == ex.clip.num_frames
+        err = np.linalg.norm(clip.global_positions()[:, body] - ex.clip.global_positions()[:, body], axis=-1).max()
+        assert err <= verb.examples[i].fit_error + 1e-6
+        assert verb.examples[i].fit_error < 0.05  # and that error is a few centimetres at most
+
+
+@pytest.mark.parametrize("name", VERB_SPECS)
+def test_batch_fast_path_and_reference_agree(verbs, name):
+    verb, _ = verbs[name]
+    rng = np.random.default_rng(11)
+    lo, hi = verb.points.min(axis=0), verb.points.max(axis=0)
+    p = rng.uniform(lo - 0.25 * (hi - lo), hi + 0.25 * (hi - lo), size=(40, len(lo)))
+    t = rng.uniform(0, 1, 40)
+    batch = verb.dofs(p, t)
+    reference = verb.dofs_reference(p, t)
+    assert np.abs(batch - reference).max() <= 1e-10
+    for k in range(40):
+        clock = float(np.interp(t[k], np.linspace(0, 1, verb.num_keytimes), verb.keytimes(p[k])))
+        assert np.abs(verb.pose(p[k], clock) - batch[k]).max() <= 1e-10
+
+
+@pytest.mark.parametrize("name", VERB_SPECS)
+def test_keytimes_increase_at_any_point(verbs, name):
+    verb, _ = verbs[name]
+    rng = np.random.default_rng(5)
+    span = np.ptp(verb.points, axis=0)
+    p = verb.points.mean(axis=0) + rng.normal(size=(500, len(span))) * span * 3  # far past the examples too
+    k = verb.keytimes(p)
+    assert np.all(k[:, 0] == 0) and np.all(np.diff(k, axis=1) > 0) and np.all(np.isfinite(k))
+
+
+def test_moving_a_refinement_far_away_leaves_the_rest(verbs):
+    """Compact support: a refinement example moved far away changes poses only near its old place."""
+    verb, _ = verbs["cmu_walk"]
+    ip = verb.interpolator
+    checked = 0
+    for j in range(len(verb.examples)):
+        records = list(verb.examples)
+        records[j] = dataclasses.replace(records[j], refine=True)
+        before = Verb(
+            verb.name,
+            verb.encoding,
+            verb.adverbs,
+            records,
+            verb.points,
+            verb.keytimes_table,
+            verb.coefficients,
+            verb.cyclic,
+            verb.fps,
+        )
+        moved = verb.points.copy()
+        moved[j] += 10 * np.ptp(verb.points, axis=0)
+        after = Verb(
+            verb.name,
+            verb.encoding,
+            verb.adverbs,
+            records,
+            moved,
+            verb.keytimes_table,
+            verb.coefficients,
+            verb.cyclic,
+            verb.fps,
+        )
+        for i in range(len(moved)):
+            if i == j:
+                continue
+            assert np.abs(after.control_points(moved[i]) - verb.coefficients[i]).max() <= 1e-9
+            if np.linalg.norm(ip._q[i] - ip._q[j]) < 2 * (ip.alpha[i] + ip.alpha[j]):
+                continue  # a neighbour: it is meant to change
+            p = verb.points[i] + 0.3 * ip.alpha[i] * ip.scale
+            a = _pose_positions(before, before.control_points(p))
+            b = _pose_positions(after, after.control_points(p))
+            assert np.linalg.norm(a - b, axis=-1).max() <= 0.005  # under the B-spline fit error
+            checked += 1
+    assert checked >= 10
+
+
+@pytest.mark.parametrize("name", VERB_SPECS)
+def test_adverbs_are_obeyed_at_between_and_past_the_examples(verbs, name):
+    verb, _ = verbs[name]
+    result = obedience(verb)
+    assert set(result) == {"at examples", "between", "25% past"}
+    assert np.all(result["at examples"] <= 5.0), result
+    assert np.all(result["between"] <= 5.0), result
+    assert np.all(result["25% past"] <= 10.0), result
+
+
+def test_a_happy_walk_turning_left_although_no_such_take_exists(verbs):
+    verb, examples = verbs["bandai_styled_walk"]
+    names = [x.name for x in verb.examples]
+    happy = verb.points[names.index("happy")]
+    p = happy.copy()
+    p[2] = 50.0  # deg/s to the left; every captured happy walk goes straight
+    clip, k = verb.synthesize(p)
+    turn = measure(clip, k, verb.adverbs[2].measure)
+    assert turn == pytest.approx(50.0, abs=0.05 * np.ptp(verb.points[:, 2]))
+    # Its pose is the happy walk's, not the normal-style turns': nearest in pose to "happy".
+    pose = _pose_positions(verb, verb.control_points(p))
+    dist = {
+        n: np.mean(np.linalg.norm(pose - _pose_positions(verb, verb.coefficients[i]), axis=-1))
+        for i, n in enumerate(names)
+    }
+    assert min(dist, key=dist.get) == "happy"
+
+
+def test_synthesized_cycles_keep_walking_forward_without_a_pop(verbs):
+    verb, _ = verbs["cmu_walk"]
+    p = np.array([1.4, 0.0])
+    one, k = verb.synthesize(p)
+    three, _ = verb.synthesize(p, cycles=3)
+    root = three.global_positions()[:, 0]
+    # Forward all the way, about three times as far as one cycle.
+    travel = np.linalg.norm(root[-1, [0, 2]] - root[0, [0, 2]])
+    one_travel = np.linalg.norm(one.global_positions()[-1, 0, [0, 2]] - one.global_positions()[0, 0, [0, 2]])
+    assert travel == pytest.approx(3 * one_travel, rel=0.05)
+    # No joint jumps at the seams more than the largest frame-to-frame motion inside a cycle.
+    step = np.linalg.norm(np.diff(three.global_positions(), axis=0), axis=-1).max(axis=1)
+    inside = np.linalg.norm(np.diff(one.global_positions(), axis=0), axis=-1).max(axis=1).max()
+    assert step.max() <= 1.2 * inside
+
+
+def test_bad_adverb_values_are_rejected(verbs):
+    verb, _ = verbs["cmu_walk"]
+    with pytest.raises(AdverbsError, match="'turn' must be a finite number"):
+        verb.point({"turn": float("nan")})
+    with pytest.raises(AdverbsError, match="no adverb 'mood'"):
+        verb.point({"mood": 1.0})
+    with pytest.raises(AdverbsError, match="finite"):
+        verb.pose(np.array([np.nan, 0.0]), 0.1)
+    assert np.all(np.isfinite(verb.pose(np.array([1.2, 0.0]), 0.3)))  # and it still works after
+
+
+# ----- files -------------------------------------------------------------------------------------
+
+
+def test_save_load_round_trip(verbs, tmp_path):
+    verb, _ = verbs["bandai_styled_walk"]
+    path = tmp_path / "walk.verb"
+    verb.save(path)
+    again = Verb.load(path)
+    assert again.adverbs == verb.adverbs and again.examples == verb.examples
+    assert np.array_equal(again.coefficients, verb.coefficients)
+    assert np.array_equal(again.keytimes_table, verb.keytimes_table)
+    p = np.array([0.3, -0.2, 20.0])
+    a, _ = verb.synthesize(p)
+    b, _ = again.synthesize(p)
+    assert np.array_equal(a.global_positions(), b.global_positions())
+    with zipfile.ZipFile(path) as z:
+        meta = json.loads(z.read("verb.json"))
+        assert meta["format"] == "adverbs-verb" and meta["version"] == 1
+        assert all(n.endswith(".npy") or n == "verb.json" for n in z.namelist())
+
+
+def _rewrite(src, dst, change):
+    with zipfile.ZipFile(src) as z, zipfile.ZipFile(dst, "w") as out:
+        for name in z.namelist():
+            data = z.read(name)
+            data = change(name, data)
+            if data is not None:
+                out.writestr(name, data)
+
+
+def test_load_rejects_other_versions_and_damaged_files(verbs, tmp_path):
+    verb, _ = verbs["cmu_walk"]
+    good = tmp_path / "good.verb"
+    verb.save(good)
+
+    def newer(name, data):
+        if name != "verb.json":
+            return data
+        meta = json.loads(data)
+        meta["version"] = 99
+        return json.dumps(meta)
+
+    _rewrite(good, tmp_path / "v99.verb", newer)
+    with pytest.raises(AdverbsError, match="version 99.*Rebuild"):
+        Verb.load(tmp_path / "v99.verb")
+    _rewrite(good, tmp_path / "nocoef.verb", lambda n, d: None if n == "coefficients.npy" else d)
+    with pytest.raises(AdverbsError, match="damaged"):
+        Verb.load(tmp_path / "nocoef.verb")
+    (tmp_path / "cut.verb").write_bytes(good.read_bytes()[:500])
+    with pytest.raises(AdverbsError, match="damaged"):
+        Verb.load(tmp_path / "cut.verb")
+    _rewrite(good, tmp_path / "json.verb", lambda n, d: b"{not json" if n == "verb.json" else d)
+    with pytest.raises(AdverbsError, match="damaged"):
+        Verb.load(tmp_path / "json.verb")
+    with pytest.raises(AdverbsError, match="no such verb file"):
+        Verb.load(tmp_path / "missing.verb")
+    # A failed save leaves the previous file intact.
+    before = good.read_bytes()
+    broken = Verb(
+        verb.name,
+        verb.encoding,
+        verb.adverbs,
+        verb.examples,
+        verb.points,
+        verb.keytimes_table,
+        verb.coefficients,
+        verb.cyclic,
+        verb.fps,
+    )
+    broken.points = np.array([object()], dtype=object)  # cannot be written without pickling
+    with pytest.raises(ValueError, match="pickle"):
+        broken.save(good)
+    assert good.read_bytes() == before
+    assert not list(tmp_path.glob("*.tmp"))
