@@ -22,6 +22,7 @@ test: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py
+	$(BIN)/python benchmarks/verbs.py
 
 clean:
 	rm -rf $(VENV) out .pytest_cache

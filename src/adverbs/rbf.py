@@ -110,6 +110,11 @@ class AdverbInterpolator:
         self.num_adverbs = a
         self._inv_scale = 1.0 / self.scale
         self._inv_alpha = 1.0 / self.alpha
+        # [q, ‖q‖², 1] @ this = ‖q − q_i‖² / α_i² for every example i.
+        inv_a2 = self._inv_alpha**2
+        self._distance_form = np.vstack([-2.0 * q.T, np.ones((1, e)), np.sum(q * q, axis=-1)[None]]) * inv_a2
+        self._radial_a = self._radial_from_values / 6.0
+        self._radial_b = self._radial_from_values * (-4.0 / 6.0)
 
     @staticmethod
     def _linear_basis(q: np.ndarray) -> np.ndarray:
@@ -130,10 +135,31 @@ class AdverbInterpolator:
         return bspline_profile(d / self.alpha)
 
     def weights(self, p: np.ndarray) -> np.ndarray:
-        """Cardinal weights ``w(p)``, ``(..., E)``: ``b(p) = w(p) @ values``. They sum to 1."""
+        """Cardinal weights ``w(p)``, ``(..., E)``: ``b(p) = w(p) @ values``. They sum to 1.
+
+        Written for many points at once: ``(‖q − q_i‖ / α_i)²`` is one matrix product of augmented
+        vectors, the profile is computed in place, and its constants are folded into the weight
+        matrices, so each (P, E) array is passed over a few times only.
+        """
         q = self._normalized(p)
-        d = np.sqrt(np.sum((q[..., None, :] - self._q) ** 2, axis=-1))
-        return bspline_profile(d / self.alpha) @ self._radial_from_values + self._linear_basis(q) @ self._lin_pinv
+        shape = q.shape[:-1]
+        q = q.reshape(-1, self.num_adverbs)
+        aug = np.concatenate([q, np.sum(q * q, axis=1, keepdims=True), np.ones((len(q), 1))], axis=1)
+        r = aug @ self._distance_form  # (P, E): squared scaled distances
+        np.maximum(r, 0.0, out=r)
+        np.sqrt(r, out=r)
+        # B(r) = (a³ − 4 b³) / 6 with a = max(2 − r, 0), b = max(a − 1, 0); the 1/6 and 4 live in the matrices.
+        np.subtract(2.0, r, out=r)
+        np.maximum(r, 0.0, out=r)
+        b = r - 1.0
+        np.maximum(b, 0.0, out=b)
+        a3 = r * r
+        a3 *= r
+        b3 = b * b
+        b3 *= b
+        w = a3 @ self._radial_a + b3 @ self._radial_b
+        w += self._linear_basis(q) @ self._lin_pinv
+        return w.reshape(shape + (len(self._q),))
 
     def weights_one(self, p: np.ndarray) -> np.ndarray:
         """:meth:`weights` for a single point ``(A,)``: the same numbers with fewer array operations."""

@@ -22,6 +22,7 @@ import json
 import os
 import tempfile
 import zipfile
+from bisect import bisect_right
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -37,6 +38,7 @@ from .rbf import AdverbInterpolator
 from .skeleton import Skeleton
 
 FORMAT = "adverbs-verb"
+_CHUNK = 2048  # queries per block in batched evaluation
 SEAM_BLEND = 0.25  # fraction of a cycle over which the seam between cycles is blended
 VERSION = 1
 
@@ -119,9 +121,10 @@ class Verb:
         )
         self._log_intervals = np.log(np.diff(self.keytimes_table, axis=1))  # (E, N-1)
         self._by_cp = np.ascontiguousarray(self.coefficients.transpose(1, 0, 2))  # (NumCP, E, D)
-        self._cache_p: np.ndarray | None = None
+        self._by_cp_sixth = self._by_cp / 6.0  # the B-spline weights' common factor, folded in once
+        self._cache_key = b""
         self._cache_w = np.empty(0)
-        self._cache_k = np.empty(0)
+        self._cache_k: list[float] = []
 
     # ----- shape -------------------------------------------------------------------------------
     @property
@@ -228,21 +231,33 @@ class Verb:
         B-spline segment so each group is one matrix product.
         """
         p = np.asarray(p, dtype=float)
-        t = np.asarray(t, dtype=float)
-        w = self.weights(p).reshape(-1, len(self.examples))
-        idx, bw = bspline.basis(t.reshape(-1), self.num_cp)
-        if len(w) != len(idx):
-            raise AdverbsError(f"dofs: {len(w)} adverb points but {len(idx)} times")
-        out = np.empty((len(w), self.encoding.num_dofs))
+        if p.shape[-1:] != (len(self.adverbs),):
+            raise AdverbsError(f"verb {self.name!r} takes {len(self.adverbs)} adverbs, got points of shape {p.shape}")
+        p = p.reshape(-1, len(self.adverbs))
+        t = np.asarray(t, dtype=float).reshape(-1)
+        if len(p) != len(t):
+            raise AdverbsError(f"dofs: {len(p)} adverb points but {len(t)} times")
+        out = np.empty((len(t), self.encoding.num_dofs))
+        for a in range(0, len(t), _CHUNK):  # chunks that stay in cache
+            out[a : a + _CHUNK] = self._dofs_chunk(p[a : a + _CHUNK], t[a : a + _CHUNK])
+        return out
+
+    def _dofs_chunk(self, p: np.ndarray, t: np.ndarray) -> np.ndarray:
+        w = self.weights(p)
+        idx, bw = bspline.basis(t, self.num_cp)
         first = idx[:, 0]
         order = np.argsort(first, kind="stable")
-        bounds = np.flatnonzero(np.diff(first[order])) + 1
+        first = first[order]
         e = len(self.examples)
-        for group in np.split(order, bounds):
-            s = first[group[0]]
-            slab = self._by_cp[s : s + 4].reshape(4 * e, -1)  # (4E, D), a view
-            mixed = (bw[group][:, :, None] * w[group][:, None, :]).reshape(len(group), 4 * e)
-            out[group] = mixed @ slab
+        # Every query's 4 × E blend weights, in segment order so each segment is one contiguous block.
+        mixed = (bw[order][:, :, None] * w[order][:, None, :]).reshape(len(order), 4 * e)
+        out_sorted = np.empty((len(order), self.encoding.num_dofs))
+        starts = np.flatnonzero(np.diff(first, prepend=-1))
+        for a, b in zip(starts, [*starts[1:], len(order)]):
+            s = first[a]
+            np.matmul(mixed[a:b], self._by_cp[s : s + 4].reshape(4 * e, -1), out=out_sorted[a:b])
+        out = np.empty_like(out_sorted)
+        out[order] = out_sorted
         return out
 
     def dofs_reference(self, p: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -254,41 +269,45 @@ class Verb:
             out.append(bspline.evaluate(ip.evaluate(pi, coef), np.array(ti)))
         return np.stack(out)
 
-    def _at(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        if self._cache_p is None or not np.array_equal(p, self._cache_p):
-            p = np.asarray(p, dtype=float)
+    def _at(self, p: np.ndarray) -> tuple[np.ndarray, list[float]]:
+        """Weights and keytimes (a list, for ``bisect``) at ``p``, cached for the last ``p`` seen."""
+        p = np.asarray(p, dtype=float)
+        key = p.tobytes()
+        if key != self._cache_key:
             if p.shape != (len(self.adverbs),):
                 raise AdverbsError(f"verb {self.name!r} takes {len(self.adverbs)} adverbs, got shape {p.shape}")
             w = self.interpolator.weights_one(p)
             steps = np.exp(w @ self._log_intervals)
-            self._cache_w, self._cache_k = w, np.concatenate(([0.0], np.cumsum(steps)))
-            self._cache_p = p.copy()
+            self._cache_w, self._cache_k = w, [0.0, *np.cumsum(steps).tolist()]
+            self._cache_key = key
         return self._cache_w, self._cache_k
 
     def pose(self, p: np.ndarray, clock: float) -> np.ndarray:
         """DOFs ``(D,)`` at one adverb point and clock time ``T`` seconds into the verb.
 
         Cyclic verbs wrap ``T`` by the cycle's duration ``K_N(p)``; one-shot verbs hold their ends.
-        The fast path: weights and keytimes cached for the last ``p``, the four live control points
-        sliced (not copied), two small matrix products.
+        The fast path: weights and keytimes cached for the last ``p``, the time warp and the four
+        B-spline weights in plain floats, the four live control points sliced (not copied), two
+        small matrix products.
         """
         w, k = self._at(p)
         n = len(k)
-        end = float(k[-1])
+        end = k[-1]
         clock = float(clock)
         clock = clock % end if self.cyclic else min(max(clock, 0.0), end)
-        m = min(int(np.searchsorted(k, clock, side="right")) - 1, n - 2)
+        m = min(bisect_right(k, clock) - 1, n - 2)
         t = (m + (clock - k[m]) / (k[m + 1] - k[m])) / (n - 1)
         u = min(max(t, 0.0), 1.0) * (self.num_cp - 3)
         seg = min(int(u), self.num_cp - 4)
         x = u - seg
         x2, x3 = x * x, x * x * x
-        bw = np.array([(1.0 - x) ** 3, 3.0 * x3 - 6.0 * x2 + 4.0, -3.0 * x3 + 3.0 * x2 + 3.0 * x + 1.0, x3])
-        return (bw * (1.0 / 6.0)) @ np.matmul(w, self._by_cp[seg : seg + 4])
+        y = 1.0 - x
+        bw = np.array([y * y * y, 3.0 * x3 - 6.0 * x2 + 4.0, -3.0 * x3 + 3.0 * x2 + 3.0 * x + 1.0, x3])
+        return bw @ np.matmul(w, self._by_cp_sixth[seg : seg + 4])
 
     def duration(self, p: np.ndarray) -> float:
         """Clock duration ``K_N(p)`` of one cycle (or of the whole motion) at ``p``."""
-        return float(self._at(np.asarray(p, dtype=float))[1][-1])
+        return self._at(p)[1][-1]
 
     def synthesize(
         self,

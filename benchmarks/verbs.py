@@ -1,0 +1,109 @@
+"""Verb benchmarks: build time, pose evaluation (single and batched) beside scipy's RBFInterpolator.
+
+    make bench            (or: .venv/bin/python benchmarks/verbs.py)
+
+Prints a Markdown table; medians of repeated runs on this machine.
+"""
+
+from __future__ import annotations
+
+import statistics
+import time
+from pathlib import Path
+
+import numpy as np
+from scipy.interpolate import RBFInterpolator
+
+from adverbs import bspline
+from adverbs.spec import build_from_spec, examples_from_spec, load_spec
+from adverbs.verb import Verb
+
+SPECS = Path(__file__).resolve().parent.parent / "specs"
+
+
+def median_seconds(fn, repeats: int = 7) -> float:
+    fn()
+    times = []
+    for _ in range(repeats):
+        t = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t)
+    return statistics.median(times)
+
+
+def main() -> None:
+    rows = []
+    largest = "bandai_reach"
+    spec = load_spec(SPECS / f"{largest}.toml")
+    examples, adverbs = examples_from_spec(spec)
+    build = median_seconds(
+        lambda: Verb.build(spec["name"], examples, adverbs, spec["num_cp"], spec["encoding"], spec["cyclic"]), 5
+    )
+    verb = Verb.build(spec["name"], examples, adverbs, spec["num_cp"], spec["encoding"], spec["cyclic"])
+    size = f"{len(examples)} examples, {verb.encoding.num_dofs} DOFs, NumCP {verb.num_cp}"
+    rows.append((f"build {verb.name} ({size})", f"{build * 1e3:.0f} ms"))
+    from_spec = median_seconds(lambda: build_from_spec(SPECS / f"{largest}.toml"), 3)
+    rows.append((f"build {verb.name} from its spec, reading and cutting the BVH files", f"{from_spec * 1e3:.0f} ms"))
+
+    rng = np.random.default_rng(0)
+    lo, hi = verb.points.min(axis=0), verb.points.max(axis=0)
+    n = 3000
+    p = rng.uniform(lo, hi, size=(n, len(lo)))
+    clock = rng.uniform(0.0, 1.0, n) * verb.keytimes(p)[:, -1]
+    times = []
+    for k in range(n):
+        t0 = time.perf_counter()
+        verb.pose(p[k], clock[k])
+        times.append(time.perf_counter() - t0)
+    single = statistics.median(times)
+    rows.append(("one pose at a new p every call (median)", f"{single * 1e6:.1f} µs"))
+    times = []
+    for k in range(n):
+        t0 = time.perf_counter()
+        verb.pose(p[0], clock[k])
+        times.append(time.perf_counter() - t0)
+    rows.append(
+        ("one pose, p unchanged (cached weights and keytimes, median)", f"{statistics.median(times) * 1e6:.1f} µs")
+    )
+
+    q = rng.uniform(lo, hi, size=(10_000, len(lo)))
+    t = rng.uniform(0.0, 1.0, 10_000)
+    batch = median_seconds(lambda: verb.dofs(q, t), 7)
+    rows.append(("10,000 (p, t) pairs in one batched call", f"{batch * 1e3:.1f} ms"))
+
+    # scipy doing the same query: thin-plate RBF with a linear polynomial over all control points.
+    scale = np.ptp(verb.points, axis=0)
+    values = verb.coefficients.reshape(len(examples), -1)
+    rbf = RBFInterpolator(verb.points / scale, values, kernel="thin_plate_spline", degree=1)
+
+    def scipy_one(k):
+        cp = rbf(p[k : k + 1] / scale)[0].reshape(verb.num_cp, -1)
+        return bspline.evaluate(cp, np.array(0.5))
+
+    times = []
+    for k in range(300):
+        t0 = time.perf_counter()
+        scipy_one(k)
+        times.append(time.perf_counter() - t0)
+    scipy_single = statistics.median(times)
+    rows.append(("scipy RBFInterpolator, one pose at a new p (median)", f"{scipy_single * 1e6:.1f} µs"))
+
+    def scipy_batch():
+        cps = rbf(q / scale).reshape(len(q), verb.num_cp, -1)
+        idx, w = bspline.basis(t, verb.num_cp)
+        return np.einsum("qk,qkd->qd", w, np.take_along_axis(cps, idx[:, :, None], axis=1))
+
+    sb = median_seconds(scipy_batch, 3)
+    rows.append(("scipy RBFInterpolator, 10,000 (p, t) pairs batched", f"{sb * 1e3:.1f} ms"))
+    rows.append(("ratio scipy / ours, single pose", f"{scipy_single / single:.1f}×"))
+    rows.append(("ratio scipy / ours, 10,000 batched", f"{sb / batch:.1f}×"))
+
+    width = max(len(r[0]) for r in rows)
+    print(f"| {'verb benchmark'.ljust(width)} | result |")
+    print(f"| {'-' * width} | --- |")
+    for what, value in rows:
+        print(f"| {what.ljust(width)} | {value} |")
+
+
+if __name__ == "__main__":
+    main()
