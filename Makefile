@@ -13,9 +13,14 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/adverbs info data/cmu16/16_15_walk.bvh
-	$(BIN)/adverbs convert data/cmu16/16_19_walk_90-degree_right_turn.bvh out/demo_left_turn.bvh --mirror
-	$(BIN)/adverbs info out/demo_left_turn.bvh
+	$(BIN)/adverbs info data/bandai/dataset-1_walk_happy_001.bvh
+	$(BIN)/adverbs build specs/bandai_styled_walk.toml -o out/bandai_styled_walk.verb
+	$(BIN)/adverbs describe out/bandai_styled_walk.verb
+	$(BIN)/adverbs synth out/bandai_styled_walk.verb --adverb valence=1 --adverb energy=0.6 --adverb turn=45 --cycles 4 -o out/happy_walk_turning_left.bvh
+	$(BIN)/adverbs synth out/bandai_styled_walk.verb --adverb valence=-1 --adverb energy=-1 --adverb turn=-40 --cycles 3 -o out/sad_walk_turning_right.bvh
+	$(BIN)/adverbs build specs/cmu_walk.toml -o out/cmu_walk.verb
+	$(BIN)/adverbs synth out/cmu_walk.verb --adverb speed=2.1 --adverb turn=0 --cycles 4 -o out/cmu_walk_faster_than_any_example.bvh
+	$(BIN)/adverbs evaluate out/cmu_walk.verb --png out/cmu_walk_evaluate.png
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q

@@ -8,26 +8,15 @@ Each figure is the median of several timed repeats on this machine.
 from __future__ import annotations
 
 import platform
-import statistics
-import time
 from pathlib import Path
 
 import numpy as np
+from timing import median_seconds, print_table
 
 from adverbs import forward_kinematics, read_bvh
 from adverbs.encoding import DofEncoding
 
 DATA = Path(__file__).resolve().parent.parent / "data"
-
-
-def median_seconds(fn, repeats: int = 7) -> float:
-    fn()  # warm up
-    times = []
-    for _ in range(repeats):
-        t = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t)
-    return statistics.median(times)
 
 
 def main() -> None:
@@ -78,11 +67,7 @@ def main() -> None:
         f"Machine: {platform.processor() or platform.machine()}, Python {platform.python_version()}, "
         f"NumPy {np.__version__}\n"
     )
-    width = max(len(r[0]) for r in rows)
-    print(f"| {'what'.ljust(width)} | result |")
-    print(f"| {'-' * width} | --- |")
-    for what, value in rows:
-        print(f"| {what.ljust(width)} | {value} |")
+    print_table("what", rows)
 
 
 if __name__ == "__main__":

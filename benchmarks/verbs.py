@@ -12,6 +12,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from timing import median_seconds, print_table
 from scipy.interpolate import RBFInterpolator
 
 from adverbs import bspline
@@ -19,16 +20,6 @@ from adverbs.spec import build_from_spec, examples_from_spec, load_spec
 from adverbs.verb import Verb
 
 SPECS = Path(__file__).resolve().parent.parent / "specs"
-
-
-def median_seconds(fn, repeats: int = 7) -> float:
-    fn()
-    times = []
-    for _ in range(repeats):
-        t = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t)
-    return statistics.median(times)
 
 
 def main() -> None:
@@ -98,11 +89,7 @@ def main() -> None:
     rows.append(("ratio scipy / ours, single pose", f"{scipy_single / single:.1f}×"))
     rows.append(("ratio scipy / ours, 10,000 batched", f"{sb / batch:.1f}×"))
 
-    width = max(len(r[0]) for r in rows)
-    print(f"| {'verb benchmark'.ljust(width)} | result |")
-    print(f"| {'-' * width} | --- |")
-    for what, value in rows:
-        print(f"| {what.ljust(width)} | {value} |")
+    print_table("verb benchmark", rows)
 
 
 if __name__ == "__main__":
