@@ -13,7 +13,7 @@ from conftest import VERB_SPECS
 from adverbs import AdverbsError
 from adverbs.evaluate import _pose_positions, obedience
 from adverbs.measures import measure
-from adverbs.verb import Verb
+from adverbs.verb import VERSION, Verb
 
 
 def _body(verb):
@@ -191,7 +191,7 @@ def test_save_load_round_trip(verbs, tmp_path):
     assert np.array_equal(a.global_positions(), b.global_positions())
     with zipfile.ZipFile(path) as z:
         meta = json.loads(z.read("verb.json"))
-        assert meta["format"] == "adverbs-verb" and meta["version"] == 1
+        assert meta["format"] == "adverbs-verb" and meta["version"] == VERSION
         assert all(n.endswith(".npy") or n == "verb.json" for n in z.namelist())
 
 

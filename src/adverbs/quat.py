@@ -164,6 +164,12 @@ def unwrap_euler(order: str, angles: np.ndarray, axis: int = 0) -> np.ndarray:
     return np.moveaxis(a, 0, axis)
 
 
+def slerp(a: np.ndarray, b: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """Spherical interpolation from ``a`` to ``b`` (both ``(..., 4)``) by ``u (...)`` in [0, 1], the short way."""
+    b = np.where(np.sum(a * b, axis=-1, keepdims=True) < 0.0, -b, b)
+    return normalize(mul(a, exp(log(mul(inv(a), b)) * np.asarray(u, dtype=float)[..., None])))
+
+
 def slerp_frames(q: np.ndarray, positions: np.ndarray) -> np.ndarray:
     """Spherical interpolation of a sampled sequence ``q (F, ..., 4)`` at fractional frame indices.
 

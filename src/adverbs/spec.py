@@ -43,16 +43,29 @@ import numpy as np
 
 from .bvh import read_bvh
 from .clip import Clip
-from .contacts import cut_steps, find_contacts
+from .constraints import Constraint
+from .contacts import find_contacts, step_events, step_range
 from .encoding import KINDS
 from .errors import AdverbsError
 from .measures import MEASURES, check_measure, default_unit, measure
 from .verb import Adverb, Example, Verb
 
-_TOP = {"name", "encoding", "num_cp", "cyclic", "skeleton", "cut", "adverbs", "examples", "description"}
+_TOP = {
+    "name",
+    "encoding",
+    "num_cp",
+    "cyclic",
+    "skeleton",
+    "cut",
+    "adverbs",
+    "examples",
+    "description",
+    "floor",
+    "constraints",
+}
 _ADVERB = {"name", "unit", "measure", "description"}
 _EXAMPLE = {"name", "file", "cut", "frames", "keytimes", "mirror", "adverbs", "refine", "description"}
-_CUT = {"foot", "strike", "steps"}
+_CUT = {"foot", "strike", "steps", "events"}
 
 
 class SpecError(AdverbsError):
@@ -127,9 +140,21 @@ def load_spec(path: str | Path) -> dict[str, Any]:
             raise SpecError(path, "missing", ex["name"], "file")
         if "cut" in ex and "frames" in ex:
             raise SpecError(path, "give either 'cut' or 'frames', not both", ex["name"], "frames")
+    floor = raw.get("floor", 0.0)
+    if isinstance(floor, bool) or not isinstance(floor, int | float) or not math.isfinite(floor):
+        raise SpecError(path, f"must be a finite height in metres, got {floor!r}", field="floor")
+    constraints = raw.get("constraints", "auto")
+    if constraints != "auto":
+        if not isinstance(constraints, list):
+            raise SpecError(path, 'must be "auto" or a list of { effector, open, close }', field="constraints")
+        for i, c in enumerate(constraints):
+            if not isinstance(c, dict) or set(c) != {"effector", "open", "close"}:
+                raise SpecError(path, "each needs exactly effector, open and close", field=f"constraints[{i}]")
     return {
         "path": path,
         "name": name,
+        "floor": float(floor),
+        "constraints": constraints,
         "encoding": encoding,
         "num_cp": num_cp,
         "cyclic": cyclic,
@@ -185,16 +210,24 @@ def examples_from_spec(spec: dict[str, Any]) -> tuple[list[Example], list[Adverb
                 clip = clip.mirror()
             except AdverbsError as e:
                 raise SpecError(path, str(e), name, "mirror") from None
-        part, keytimes, desc = _cut(path, ex, clip, spec)
-        pending.append((ex, clip, part, keytimes, desc))
+        part, keytimes, names, desc = _cut(path, ex, clip, spec)
+        pending.append((ex, clip, part, keytimes, desc, names))
 
     num_keytimes = len(pending[0][3])
-    for ex, _, _, keytimes, _ in pending:
+    for ex, _, _, keytimes, _, names in pending:
         if len(keytimes) != num_keytimes:
             raise SpecError(
                 path,
                 f"has {len(keytimes)} keytimes, example {pending[0][0]['name']!r} has {num_keytimes}: "
                 "every example needs the same structure (same number of steps)",
+                ex["name"],
+                "keytimes",
+            )
+        if names != pending[0][5]:
+            raise SpecError(
+                path,
+                f"its keytimes are {', '.join(names)}; example {pending[0][0]['name']!r} has "
+                f"{', '.join(pending[0][5])}: every example needs the same events in the same order",
                 ex["name"],
                 "keytimes",
             )
@@ -210,7 +243,7 @@ def examples_from_spec(spec: dict[str, Any]) -> tuple[list[Example], list[Adverb
         unit = a.get("unit", default_unit(m["kind"]) if m else "")
         adverbs.append(Adverb(a["name"], str(unit), m))
 
-    for ex, _, part, keytimes, desc in pending:
+    for ex, _, part, keytimes, desc, names in pending:
         given = ex.get("adverbs", {})
         if not isinstance(given, dict):
             raise SpecError(path, "must be a table of adverb values", ex["name"], "adverbs")
@@ -244,11 +277,16 @@ def examples_from_spec(spec: dict[str, Any]) -> tuple[list[Example], list[Adverb
                     ex["name"],
                     "adverbs",
                 )
-        examples.append(Example(ex["name"], part, keytimes, np.array(point), ex["file"], desc, ex.get("refine", False)))
+        examples.append(
+            Example(
+                ex["name"], part, keytimes, np.array(point), ex["file"], desc, ex.get("refine", False), tuple(names)
+            )
+        )
     return examples, adverbs
 
 
-def _cut(path: Path, ex: dict, clip: Clip, spec: dict) -> tuple[Clip, np.ndarray, str]:
+def _cut(path: Path, ex: dict, clip: Clip, spec: dict) -> tuple[Clip, np.ndarray, list[str], str]:
+    """The example's part of the clip, its keytimes (seconds), their names, and a description."""
     name = ex["name"]
     if "frames" in ex:
         frames = ex["frames"]
@@ -258,28 +296,28 @@ def _cut(path: Path, ex: dict, clip: Clip, spec: dict) -> tuple[Clip, np.ndarray
             part = clip.frames(*frames)
         except AdverbsError as e:
             raise SpecError(path, str(e), name, "frames") from None
-        desc = f"frames {frames[0]}:{frames[1]}"
-        return part, _given_keytimes(path, ex, part), desc
+        return (part, *_given_keytimes(path, ex, part), f"frames {frames[0]}:{frames[1]}")
     cut = dict(spec["cut"] or {})
     cut.update(ex.get("cut", {}))
     if not cut:
-        part = clip
-        return part, _given_keytimes(path, ex, part), "whole file"
+        return (clip, *_given_keytimes(path, ex, clip), "whole file")
     extra = sorted(set(cut) - _CUT)
     if extra:
         raise SpecError(path, f"unknown field; cut takes {', '.join(sorted(_CUT))}", name, f"cut.{extra[0]}")
     foot, steps, strike = cut.get("foot", "left"), cut.get("steps", 2), cut.get("strike", 0)
+    events = cut.get("events", "strikes")
     if not isinstance(steps, int) or steps < 1:
         raise SpecError(path, f"must be a whole number of steps ≥ 1, got {steps!r}", name, "cut.steps")
+    if events not in ("strikes", "contacts"):
+        raise SpecError(path, f'must be "strikes" or "contacts", got {events!r}', name, "cut.events")
     if "keytimes" in ex:
         raise SpecError(path, "a cut at heel strikes takes its keytimes from them; remove 'keytimes'", name, "keytimes")
     try:
         contacts = find_contacts(clip)
         if strike == "most_turning":
-            part, keytimes, k = _most_turning(clip, foot, steps, contacts)
+            strikes = _most_turning(clip, foot, steps, contacts)
         elif isinstance(strike, int) and strike >= 0:
-            part, keytimes = cut_steps(clip, foot, strike, steps, contacts)
-            k = strike
+            strikes = step_range(contacts, foot, strike, steps, clip.name)
         else:
             raise SpecError(
                 path, f'must be a heel-strike index ≥ 0 or "most_turning", got {strike!r}', name, "cut.strike"
@@ -288,28 +326,37 @@ def _cut(path: Path, ex: dict, clip: Clip, spec: dict) -> tuple[Clip, np.ndarray
         raise
     except AdverbsError as e:
         raise SpecError(path, str(e), name, "cut") from None
-    return part, keytimes, f"{steps} steps from {foot} heel strike {k}"
+    start, stop = int(strikes[0]), int(strikes[-1])
+    frames, names = step_events(contacts, start, stop, toe_offs=events == "contacts")
+    k = int(np.flatnonzero(np.array(contacts.strikes(foot)) == start)[0])
+    return (
+        clip.frames(start, stop + 1),
+        (frames - start) / clip.fps,
+        names,
+        f"{steps} steps from {foot} heel strike {k}",
+    )
 
 
-def _most_turning(clip: Clip, foot: str, steps: int, contacts) -> tuple[Clip, np.ndarray, int]:
-    """The cut whose heading changes most: where a turn clip actually turns."""
+def _most_turning(clip: Clip, foot: str, steps: int, contacts) -> np.ndarray:
+    """The heel strikes of the cut whose heading changes most: where a turn clip actually turns."""
     best = None
     k = 0
     while True:
         try:
-            part, keytimes = cut_steps(clip, foot, k, steps, contacts)
+            strikes = step_range(contacts, foot, k, steps, clip.name)
         except AdverbsError:
             break
-        turn = abs(measure(part, keytimes, {"kind": "heading_change"}))
+        part = clip.frames(int(strikes[0]), int(strikes[-1]) + 1)
+        turn = abs(measure(part, (strikes - strikes[0]) / clip.fps, {"kind": "heading_change"}))
         if best is None or turn > best[0]:
-            best = (turn, part, keytimes, k)
+            best = (turn, strikes)
         k += 1
     if best is None:
-        cut_steps(clip, foot, 0, steps, contacts)  # raises the informative error
-    return best[1], best[2], best[3]
+        step_range(contacts, foot, 0, steps, clip.name)  # raises the informative error
+    return best[1]
 
 
-def _given_keytimes(path: Path, ex: dict, part: Clip) -> np.ndarray:
+def _given_keytimes(path: Path, ex: dict, part: Clip) -> tuple[np.ndarray, list[str]]:
     name = ex["name"]
     given = ex.get("keytimes")
     if given is None:
@@ -328,7 +375,7 @@ def _given_keytimes(path: Path, ex: dict, part: Clip) -> np.ndarray:
             raise SpecError(
                 path, f"{given['peak']} is highest at the first or last frame: no peak inside", name, "keytimes.peak"
             )
-        return np.array([0.0, peak / part.fps, part.duration])
+        return np.array([0.0, peak / part.fps, part.duration]), ["start", f"{given['peak']} peak", "end"]
     if not isinstance(given, list) or not all(isinstance(v, int | float) and not isinstance(v, bool) for v in given):
         raise SpecError(path, f"must be a list of seconds, got {given!r}", name, "keytimes")
     k = np.array(given, dtype=float)
@@ -350,19 +397,33 @@ def _given_keytimes(path: Path, ex: dict, part: Clip) -> np.ndarray:
             "keytimes",
         )
     k[-1] = part.duration
-    return k
+    return k, [f"keytime {i}" for i in range(len(k))]
 
 
 def build_from_spec(path: str | Path) -> Verb:
     """Parse a spec, read and cut its examples, and build the verb."""
     spec = load_spec(path)
     examples, adverbs = examples_from_spec(spec)
+    constraints = spec["constraints"]
+    if constraints != "auto":
+        constraints = [Constraint(str(c["effector"]), c["open"], c["close"]) for c in constraints]
     try:
-        return Verb.build(spec["name"], examples, adverbs, spec["num_cp"], spec["encoding"], spec["cyclic"])
+        return Verb.build(
+            spec["name"],
+            examples,
+            adverbs,
+            spec["num_cp"],
+            spec["encoding"],
+            spec["cyclic"],
+            constraints,
+            spec["floor"],
+        )
     except SpecError:
         raise
     except AdverbsError as e:
         text = str(e)
         example = next((ex.name for ex in examples if f"{ex.name!r}" in text), None)
         field = "adverbs" if "adverb point" in text or "non-finite" in text else None
+        if text.startswith("constraint on") or "no joint named" in text:
+            field = "constraints"
         raise SpecError(spec["path"], text, example, field) from None

@@ -31,16 +31,18 @@ import numpy as np
 
 from . import bspline, timewarp
 from .clip import Clip
+from .constraints import Constraint, auto_constraints, check_constraint
 from .encoding import DofEncoding
 from .errors import AdverbsError
 from .fk import forward_kinematics
+from .ik import LegChains
 from .rbf import AdverbInterpolator
 from .skeleton import Skeleton
 
-FORMAT = "adverbs-verb"
+FORMAT = "adverbs-verb"  # version 2 added keytime names, constraints and the floor
 _CHUNK = 2048  # queries per block in batched evaluation
 SEAM_BLEND = 0.25  # fraction of a cycle over which the seam between cycles is blended
-VERSION = 1
+VERSION = 2
 
 
 @dataclass(frozen=True)
@@ -66,6 +68,7 @@ class Example:
     source: str = ""
     part: str = ""
     refine: bool = False  # a local refinement: radial part only, not in the linear fit
+    keytime_names: tuple[str, ...] = ()  # e.g. ("left strike", "right toe-off", ...)
 
 
 @dataclass(frozen=True)
@@ -101,6 +104,9 @@ class Verb:
         coefficients: np.ndarray,
         cyclic: bool,
         fps: float,
+        keytime_names: Sequence[str] = (),
+        constraints: Sequence[Constraint] = (),
+        floor: float = 0.0,
     ):
         self.name = name
         self.encoding = encoding
@@ -111,6 +117,14 @@ class Verb:
         self.coefficients = np.asarray(coefficients, dtype=float)
         self.cyclic = bool(cyclic)
         self.fps = float(fps)
+        n = self.keytimes_table.shape[1]
+        self.keytime_names = tuple(keytime_names) or tuple(f"keytime {i}" for i in range(n))
+        if len(self.keytime_names) != n:
+            raise AdverbsError(f"verb {name!r}: {len(self.keytime_names)} keytime names for {n} keytimes")
+        self.constraints = tuple(constraints)
+        for c in self.constraints:
+            check_constraint(c, encoding.skeleton, n, self.cyclic)
+        self.floor = float(floor)
         e = len(self.examples)
         if self.points.shape != (e, len(self.adverbs)) or self.keytimes_table.shape[0] != e:
             raise AdverbsError(f"verb {name!r}: tables disagree on the number of examples or adverbs")
@@ -123,6 +137,7 @@ class Verb:
         self._by_cp = np.ascontiguousarray(self.coefficients.transpose(1, 0, 2))  # (NumCP, E, D)
         self._by_cp_sixth = self._by_cp / 6.0  # the B-spline weights' common factor, folded in once
         self._cache_key = b""
+        self._chains: LegChains | None = None
         self._cache_w = np.empty(0)
         self._cache_k: list[float] = []
 
@@ -138,6 +153,19 @@ class Verb:
     @property
     def num_keytimes(self) -> int:
         return self.keytimes_table.shape[1]
+
+    def leg_chains(self) -> LegChains:
+        """The two-bone chains of the constrained effectors, knee axes fitted to the examples (cached)."""
+        if self._chains is None:
+            if not self.constraints:
+                raise AdverbsError(f"verb {self.name!r} has no constraints")
+            e, n, d = self.coefficients.shape
+            flat = self.coefficients.transpose(1, 0, 2).reshape(n, e * d)
+            samples = bspline.evaluate(flat, np.linspace(0, 1, 24)).reshape(24, e, d)
+            rotations, _ = self.encoding.decode(samples.transpose(1, 0, 2), self.fps)
+            effectors = [c.effector for c in self.constraints]
+            self._chains = LegChains.build(self.skeleton, effectors, rotations.reshape(-1, *rotations.shape[-2:]))
+        return self._chains
 
     @property
     def adverb_names(self) -> tuple[str, ...]:
@@ -173,8 +201,15 @@ class Verb:
         num_cp: int = 12,
         encoding: str = "logquat",
         cyclic: bool = True,
+        constraints: Sequence[Constraint] | str = "auto",
+        floor: float = 0.0,
     ) -> Verb:
-        """Fit B-splines to every example in generic time and set up the interpolation (§3.1, §4)."""
+        """Fit B-splines to every example in generic time and set up the interpolation (§3.1, §4).
+
+        ``constraints`` are the verb's kinematic constraints, or ``"auto"`` to find them from the
+        examples' contact keytimes (see :mod:`adverbs.constraints`); ``floor`` is the height of the
+        ground the examples walk on.
+        """
         if len(examples) < 2:
             raise AdverbsError(f"verb {name!r}: needs at least two examples, got {len(examples)}")
         bspline.check_num_cp(num_cp)
@@ -206,7 +241,27 @@ class Verb:
         keytimes = np.stack([np.asarray(ex.keytimes, dtype=float) for ex in examples])
         keytimes[:, -1] = [ex.clip.duration for ex in examples]
         points = np.stack([np.asarray(ex.point, dtype=float) for ex in examples])
-        return cls(name, enc, adverbs, records, points, keytimes, coefficients, cyclic, first.clip.fps)
+        names = first.keytime_names
+        if isinstance(constraints, str):
+            if constraints != "auto":
+                raise AdverbsError(f"constraints must be a list or 'auto', got {constraints!r}")
+            constraints = auto_constraints(
+                names or [f"keytime {i}" for i in range(len(first.keytimes))], [ex.clip for ex in examples], cyclic
+            )
+        return cls(
+            name,
+            enc,
+            adverbs,
+            records,
+            points,
+            keytimes,
+            coefficients,
+            cyclic,
+            first.clip.fps,
+            names,
+            constraints,
+            floor,
+        )
 
     # ----- evaluate ----------------------------------------------------------------------------
     def weights(self, p: np.ndarray) -> np.ndarray:
@@ -371,6 +426,9 @@ class Verb:
             "cyclic": self.cyclic,
             "fps": self.fps,
             "num_cp": self.num_cp,
+            "keytime_names": list(self.keytime_names),
+            "constraints": [c.to_dict() for c in self.constraints],
+            "floor": self.floor,
             "adverbs": [{"name": a.name, "unit": a.unit, "measure": a.measure} for a in self.adverbs],
             "examples": [
                 {"name": x.name, "source": x.source, "part": x.part, "fit_error": x.fit_error, "refine": x.refine}
@@ -479,6 +537,9 @@ class Verb:
                 arrays["coefficients"],
                 bool(meta["cyclic"]),
                 float(meta["fps"]),
+                tuple(meta["keytime_names"]),
+                [Constraint(c["effector"], int(c["open"]), int(c["close"])) for c in meta["constraints"]],
+                float(meta["floor"]),
             )
         except (KeyError, TypeError, ValueError) as e:
             if isinstance(e, AdverbsError):
