@@ -28,6 +28,7 @@ test: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py
 	$(BIN)/python benchmarks/verbs.py
+	$(BIN)/python benchmarks/feet.py
 
 clean:
 	rm -rf $(VENV) out .pytest_cache

@@ -18,9 +18,11 @@ def median_seconds(fn: Callable[[], object], repeats: int = 7) -> float:
     return statistics.median(times)
 
 
-def print_table(header: str, rows: list[tuple[str, str]]) -> None:
-    width = max(len(header), *(len(r[0]) for r in rows))
-    print(f"| {header.ljust(width)} | result |")
-    print(f"| {'-' * width} | --- |")
-    for what, value in rows:
-        print(f"| {what.ljust(width)} | {value} |")
+def print_table(header: str | tuple[str, ...], rows: list[tuple[str, ...]]) -> None:
+    """A Markdown table: ``header`` names the first column (then "result"), or every column."""
+    header = (header, "result") if isinstance(header, str) else header
+    widths = [max(len(str(r[c])) for r in [header, *rows]) for c in range(len(header))]
+    print("| " + " | ".join(h.ljust(w) for h, w in zip(header, widths)) + " |")
+    print("| " + " | ".join("-" * w for w in widths) + " |")
+    for row in rows:
+        print("| " + " | ".join(str(v).ljust(w) for v, w in zip(row, widths)) + " |")

@@ -62,3 +62,27 @@ def test_verb_command_errors(tmp_path):
     (tmp_path / "junk.verb").write_text("junk")
     r = run("describe", tmp_path / "junk.verb")
     assert r.returncode == 1 and "damaged" in r.stderr
+
+
+def test_synth_plants_feet_by_default_on_any_floor(tmp_path):
+    verb = tmp_path / "walk.verb"
+    assert run("build", SPECS / "bandai_styled_walk.toml", "-o", verb).returncode == 0
+    d = json.loads(run("describe", verb, "--json").stdout)
+    assert [c["effector"] for c in d["constraints"]] == ["Toes_L", "Toes_R"]
+    args = ["synth", verb, "--adverb", "valence=0.5", "--adverb", "turn=20", "--cycles", "2"]
+    r = run(*args, "-o", tmp_path / "ik.bvh")
+    assert r.returncode == 0 and "feet planted: drift per contact phase median 0.0 mm" in r.stdout, r.stdout
+    r = run(*args, "--no-ik", "-o", tmp_path / "raw.bvh")
+    assert r.returncode == 0 and "--no-ik" in r.stdout
+    ik, raw = read_bvh(tmp_path / "ik.bvh"), read_bvh(tmp_path / "raw.bvh")
+    assert not np.allclose(ik.global_positions(), raw.global_positions(), atol=1e-3)
+    r = run(*args, "--floor", "slope:10", "-o", tmp_path / "up.bvh")
+    assert r.returncode == 0, r.stderr
+    up = read_bvh(tmp_path / "up.bvh").global_positions()[:, 1]  # Hips
+    assert up[-1, 1] - up[0, 1] > 0.2  # it walked uphill
+    x, z = np.meshgrid(np.arange(40) * 0.25 - 5, np.arange(40) * 0.25 - 5)
+    np.savez(tmp_path / "bumps.npz", heights=0.05 * np.sin(x) * np.cos(z), spacing=0.25, origin=np.array([-5.0, -5.0]))
+    r = run(*args, "--floor", tmp_path / "bumps.npz", "-o", tmp_path / "bumps.bvh")
+    assert r.returncode == 0, r.stderr
+    r = run(*args, "--floor", tmp_path / "missing.npz", "-o", tmp_path / "x.bvh")
+    assert r.returncode == 1 and "no such height map" in r.stderr

@@ -159,3 +159,25 @@ def test_unknown_fields_and_bad_values(tmp_path):
 def test_the_shipped_specs_parse():
     for path in sorted(SPECS.glob("*.toml")):
         assert load_spec(path)["examples"]
+
+
+def test_constraint_mistakes(tmp_path):
+    head = HEAD.replace(
+        'name = "test-walk"', 'name = "test-walk"\nconstraints = [{ effector = "nose", open = 0, close = 1 }]'
+    )
+    path = spec(
+        tmp_path, example("a", WALK, "adverbs = { mood = 0 }"), example("b", FAST, "adverbs = { mood = 1 }"), head=head
+    )
+    fails(path, None, "constraints", "no joint named 'nose'")
+    head = HEAD.replace(
+        'name = "test-walk"', 'name = "test-walk"\nconstraints = [{ effector = "ltoes", open = 0, close = 7 }]'
+    )
+    path = spec(
+        tmp_path, example("a", WALK, "adverbs = { mood = 0 }"), example("b", FAST, "adverbs = { mood = 1 }"), head=head
+    )
+    fails(path, None, "constraints", "keytime index 0..2")
+    head = HEAD.replace('name = "test-walk"', 'name = "test-walk"\nconstraints = [{ effector = "ltoes", open = 0 }]')
+    path = spec(
+        tmp_path, example("a", WALK, "adverbs = { mood = 0 }"), example("b", FAST, "adverbs = { mood = 1 }"), head=head
+    )
+    fails(path, None, "constraints[0]", "effector, open and close")

@@ -96,7 +96,7 @@ def _rotation(ax, ay, az, angle, out):
 @njit(cache=True)
 def solve_batch(
     rot, trans, targets, tilts, above, upper, middle, end, hinge, o_u, o_e, tip, reach, min_flex,
-    iterations, lam2, max_step, drop_out, resid_out,
+    iterations, lam2, max_step, max_drop, drop_out, resid_out,
 ):  # fmt: skip
     n_legs = len(end)
     g = np.empty((3, 3))
@@ -147,6 +147,7 @@ def solve_batch(
             if horizontal < reach[i]:
                 need = -dy - math.sqrt(max(reach[i] * reach[i] - horizontal * horizontal, 0.0))
                 drop = max(drop, need)
+        drop = min(drop, max_drop)
         if drop > 0.0:
             trans[b, 0, 1] -= drop
             for i in range(n_legs):

@@ -4,7 +4,8 @@
     adverbs convert IN.bvh OUT.bvh [--fps F] [--mirror] [--frames A:B]
     adverbs build SPEC.toml -o VERB
     adverbs describe VERB [--json]
-    adverbs synth VERB --adverb NAME=VALUE ... [--cycles N | --duration S] [--fps F] -o OUT.bvh
+    adverbs synth VERB --adverb NAME=VALUE ... [--cycles N | --duration S] [--fps F]
+                  [--no-ik] [--floor slope:DEGREES | FILE.npz] -o OUT.bvh
     adverbs evaluate VERB [--png PLOT.png] [--json]
 
 Errors in the input print one line naming the file and line and exit with status 1.
@@ -24,6 +25,8 @@ from .bvh import read_bvh, write_bvh
 from .clip import Clip
 from .contacts import find_contacts
 from .errors import AdverbsError
+from .floor import parse_floor
+from .planting import foot_drift, plant_feet
 from .verb import Verb
 
 
@@ -136,6 +139,11 @@ def build_parser() -> argparse.ArgumentParser:
     length.add_argument("--cycles", type=_positive, help="how many cycles (default 1)")
     length.add_argument("--duration", type=_positive, help="seconds of motion")
     p.add_argument("--fps", type=_positive, help="frame rate (default: the examples')")
+    p.add_argument("--no-ik", action="store_true", help="leave the feet where the verb puts them (to compare)")
+    p.add_argument(
+        "--floor", default=None, metavar="slope:DEGREES|FILE",
+        help="the ground: flat (default, the verb's floor), slope:DEGREES rising along +Z, or a height map .npz",
+    )  # fmt: skip
     p.add_argument("-o", "--output", type=Path, required=True)
 
     p = sub.add_parser("evaluate", help="leave-one-out against other interpolators, and adverb obedience")
@@ -168,6 +176,9 @@ def describe(verb: Verb) -> dict:
         "dofs": verb.encoding.num_dofs,
         "encoding": verb.encoding.kind,
         "num_keytimes": verb.num_keytimes,
+        "keytime_names": list(verb.keytime_names),
+        "constraints": [c.to_dict() for c in verb.constraints],
+        "floor": verb.floor,
         "fps": verb.fps,
         "skeleton": {"joints": list(verb.skeleton.names), "units": verb.skeleton.units},
         "adverbs": [
@@ -191,7 +202,13 @@ def describe(verb: Verb) -> dict:
 def _print_describe(d: dict) -> None:
     kind = "cyclic" if d["cyclic"] else "one-shot"
     print(f"verb {d['name']}: {kind}, {len(d['examples'])} examples, {len(d['adverbs'])} adverbs")
-    print(f"  {d['dofs']} DOFs ({d['encoding']}), NumCP {d['num_cp']}, {d['num_keytimes']} keytimes, {d['fps']:g} fps")
+    print(f"  {d['dofs']} DOFs ({d['encoding']}), NumCP {d['num_cp']}, {d['fps']:g} fps")
+    print(f"  keytimes: {', '.join(d['keytime_names'])}")
+    names = d["keytime_names"]
+    for c in d["constraints"]:
+        print(
+            f"  constraint: {c['effector']} held from '{names[c['open']]}' ({c['open']}) to '{names[c['close']]}' ({c['close']})"
+        )
     print("  adverbs:")
     for a in d["adverbs"]:
         how = f"measured: {a['measure']['kind']}" if a["measure"] else "given by hand"
@@ -245,11 +262,25 @@ def _run(args: argparse.Namespace) -> None:
     elif args.command == "synth":
         verb = Verb.load(args.verb)
         p = verb.point(dict(args.adverb))
+        floor = parse_floor(args.floor) if args.floor is not None else None
         clip, k = verb.synthesize(p, duration=args.duration, cycles=args.cycles, fps=args.fps)
+        feet = "feet not planted (--no-ik)"
+        if verb.constraints and not args.no_ik:
+            raw = foot_drift(verb, clip, k)
+            clip, report = plant_feet(verb, clip, k, floor)
+            done = foot_drift(verb, clip, k)
+            feet = (
+                f"feet planted: drift per contact phase median {1000 * np.median(done):.1f} mm, "
+                f"max {1000 * done.max():.1f} mm (without IK {1000 * np.median(raw):.1f} / {1000 * raw.max():.1f} mm)"
+            )
+            for warning in report.warnings:
+                print(f"adverbs: warning: {warning}", file=sys.stderr)
+        elif not verb.constraints:
+            feet = "the verb has no constraints"
         args.output.parent.mkdir(parents=True, exist_ok=True)
         write_bvh(clip, args.output)
         values = ", ".join(f"{n}={v:g}" for n, v in zip(verb.adverb_names, p))
-        print(f"wrote {args.output}: {verb.name} at {values}; {clip.num_frames} frames, cycle {k[-1]:.3f} s")
+        print(f"wrote {args.output}: {verb.name} at {values}; {clip.num_frames} frames, cycle {k[-1]:.3f} s; {feet}")
     elif args.command == "evaluate":
         from .evaluate import evaluate
 

@@ -15,6 +15,9 @@ distance weighting, power 2); ``scipy-rbf`` (``scipy.interpolate.RBFInterpolator
 degree 1); ``ours`` (linear + cubic B-spline radial bases, eqs. 3–4). All work in the same scaled
 adverb coordinates and interpolate log keytime intervals.
 
+Planted feet: at the same points, two cycles synthesized with and without the constraints enforced;
+the drift of each contact phase (see :func:`adverbs.planting.planted_drift`).
+
 Obedience: our verb synthesized at every example, halfway between each example and its nearest
 neighbour, and 25% past each example (``c + 1.25 (p_i − c)``, ``c`` the examples' centre), each
 measured; the largest error per adverb as a percentage of the examples' range.
@@ -30,6 +33,7 @@ from scipy.interpolate import RBFInterpolator
 from . import bspline
 from .fk import forward_kinematics
 from .measures import measure
+from .planting import foot_drift, plant_feet
 from .rbf import AdverbInterpolator
 from .verb import Verb
 
@@ -48,6 +52,7 @@ class Evaluation:
     goal_mm: dict[str, np.ndarray] | None
     measured: list[str]
     obedience: dict[str, np.ndarray]  # "at examples" / "between" / "25% past" → (M,) max % of range
+    drift: dict[str, dict[str, np.ndarray]] | None = None  # kind of point → {"ik", "no ik"} → drifts (m)
 
     def table(self) -> str:
         """Markdown tables of the leave-one-out means and of obedience."""
@@ -66,6 +71,14 @@ class Evaluation:
         rows.append("| --- |" + " --- |" * len(self.obedience))
         for i, name in enumerate(self.measured):
             rows.append(f"| {name} | " + " | ".join(f"{v[i]:.2f}" for v in self.obedience.values()) + " |")
+        if self.drift:
+            rows += ["", f"Planted feet of {self.verb}: drift per contact phase (mm), median / max:", ""]
+            rows += ["| points | with IK | without IK |", "| --- | --- | --- |"]
+            for kind, d in self.drift.items():
+                ik, raw = 1000 * d["ik"], 1000 * d["no ik"]
+                rows.append(
+                    f"| {kind} | {np.median(ik):.2f} / {ik.max():.2f} | {np.median(raw):.1f} / {raw.max():.1f} |"
+                )
         return "\n".join(rows)
 
     def to_dict(self) -> dict:
@@ -77,6 +90,8 @@ class Evaluation:
             "measured": self.measured,
             "obedience_pct": {k: v.tolist() for k, v in self.obedience.items()},
         }
+        if self.drift:
+            out["drift_mm"] = {k: {m: (1000 * v).tolist() for m, v in d.items()} for k, d in self.drift.items()}
         if self.goal_mm:
             out["goal_mm"] = {m: v.tolist() for m, v in self.goal_mm.items()}
         return out
@@ -184,7 +199,21 @@ def evaluate(verb: Verb) -> Evaluation:
         goal,
         [verb.adverbs[i].name for i in measured],
         obedience(verb) if measured else {},
+        drift(verb) if verb.constraints else None,
     )
+
+
+def drift(verb: Verb, cycles: int = 2) -> dict[str, dict[str, np.ndarray]]:
+    """Planted-foot drift with and without IK at the obedience points (all phases of each, metres)."""
+    out = {}
+    for kind, pts in obedience_points(verb).items():
+        ik, raw = [], []
+        for p in pts:
+            clip, k = verb.synthesize(p, cycles=cycles if verb.cyclic else None)
+            raw.append(foot_drift(verb, clip, k))
+            ik.append(foot_drift(verb, plant_feet(verb, clip, k)[0], k))
+        out[kind] = {"ik": np.concatenate(ik), "no ik": np.concatenate(raw)}
+    return out
 
 
 def obedience_points(verb: Verb) -> dict[str, np.ndarray]:

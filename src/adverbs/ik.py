@@ -9,7 +9,8 @@ with the analytic Jacobian ``J = [ −[p_e − p_u]× | h × (p_e − p_m) ]`` (
 world axes, then the knee hinge ``h``). ``J Jᵀ = (‖v‖² + λ²) I − v vᵀ + c cᵀ`` has a closed-form inverse
 (Sherman–Morrison), so an iteration is a handful of vector operations, batched over any leading axes
 (creatures, frames) and over the legs. The knee is kept from hyper-extending (flexion ≥ ``min_flex``),
-the root is lowered when a target is beyond the leg's reach, and only the chain's joints change: the
+the root is lowered when a target is beyond the leg's reach (by at most half a leg: a pit is not
+reached by squatting into it; what stays out of reach is reported), and only the chain's joints change: the
 effector's own rotation is set so the foot keeps its global orientation (tilted to the ground's slope
 when a tilt is given).
 """
@@ -28,6 +29,7 @@ from .skeleton import Skeleton
 REACH = 0.999  # fraction of the straight leg's length a target may ask for
 MAX_STEP = 0.25  # radians: the largest joint change of one iteration
 ITERATIONS = 6
+MAX_DROP = 0.5  # the root is lowered by at most this fraction of the shortest leg's reach
 DAMPING = 0.01  # λ, metres
 
 
@@ -220,7 +222,7 @@ def solve_reference(
     feasible = horizontal < reach
     below = np.sqrt(np.maximum(reach**2 - horizontal**2, 0.0))
     need = np.where(feasible, -delta[..., 1] - below, 0.0)  # how far the hip must come down
-    drop = np.maximum(np.maximum(need.max(axis=-1), 0.0), min_drop)
+    drop = np.minimum(np.maximum(np.maximum(need.max(axis=-1), 0.0), min_drop), MAX_DROP * reach.min())
     if np.any(drop > 0):
         translations[..., 0, 1] -= drop
         hip = hip - drop[..., None, None] * np.array([0.0, 1.0, 0.0])
@@ -308,7 +310,7 @@ def solve(
     _kernel().solve_batch(
         rot, trans, tgt, tl, np.array(chains.above, dtype=np.int64), chains.upper, chains.middle, chains.end,
         chains.hinge, chains.upper_offset, chains.end_offset, chains.tip_offset, chains.reach, chains.min_flex,
-        int(iterations), damping * damping, MAX_STEP, drop, residual,
+        int(iterations), damping * damping, MAX_STEP, MAX_DROP * float(chains.reach.min()), drop, residual,
     )  # fmt: skip
     residual = residual.reshape(lead + (n_legs,))
     return IKResult(

@@ -1,0 +1,173 @@
+"""Planted feet: constraints, IK, floors — on walks synthesized from real capture."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from adverbs import AdverbsError, ik
+from adverbs.constraints import Constraint, phases
+from adverbs.contacts import foot_points
+from adverbs.evaluate import obedience_points
+from adverbs.floor import FlatFloor, FunctionFloor, HeightMapFloor, SlopeFloor, parse_floor
+from adverbs.planting import effector_joints, foot_drift, plant_feet, planted_drift
+
+WALKS = ["cmu_walk", "bandai_styled_walk"]
+
+
+def _points(verb):
+    pts = obedience_points(verb)
+    return {k: v[:: max(1, len(v) // 4)] for k, v in pts.items()}  # a sample of each kind
+
+
+def test_constraints_are_found_from_contacts(verbs):
+    cmu, _ = verbs["cmu_walk"]
+    assert cmu.keytime_names == ("left strike", "right strike", "left strike")
+    assert cmu.constraints == (Constraint("ltoes", 0, 1), Constraint("rtoes", 1, 0))
+    styled, _ = verbs["bandai_styled_walk"]
+    assert [c.effector for c in styled.constraints] == ["Toes_L", "Toes_R"]
+    reach, _ = verbs["bandai_reach"]  # standing: both feet down from the first keytime to the last
+    assert reach.constraints == (Constraint("Toes_L", 0, 2), Constraint("Toes_R", 0, 2))
+
+
+def test_phases_wrap_around_cycles():
+    k = np.array([0.0, 0.5, 1.0])
+    assert phases(Constraint("x", 0, 1), k, 2.0, True) == [(0.0, 0.5), (1.0, 1.5)]
+    assert phases(Constraint("x", 1, 0), k, 2.0, True) == [(0.5, 1.0), (1.5, 2.0)]
+    assert phases(Constraint("x", 0, 2), k, 2.0, False) == [(0.0, 1.0)]
+
+
+def test_drift_measure():
+    pos = np.zeros((10, 3))
+    pos[:, 0] = np.arange(10) * 0.01
+    assert np.allclose(planted_drift(pos, [(0, 5), (5, 10)]), [0.04, 0.04])
+
+
+@pytest.mark.parametrize("name", WALKS)
+def test_planted_feet_do_not_drift(verbs, name):
+    verb, _ = verbs[name]
+    for kind, pts in _points(verb).items():
+        with_ik, without = [], []
+        for p in pts:
+            clip, k = verb.synthesize(p, cycles=2)
+            planted, report = plant_feet(verb, clip, k)
+            with_ik.append(foot_drift(verb, planted, k))
+            without.append(foot_drift(verb, clip, k))
+        with_ik, without = np.concatenate(with_ik), np.concatenate(without)
+        assert np.median(with_ik) <= 0.003 and with_ik.max() <= 0.01, (kind, with_ik.max())
+        assert np.median(without) > 0.01  # the verb alone slides; IK is what holds the feet
+
+
+@pytest.mark.parametrize("name", WALKS)
+def test_ik_changes_only_the_leg_chains_and_root_height(verbs, name):
+    verb, _ = verbs[name]
+    clip, k = verb.synthesize(verb.points[2], cycles=2)
+    planted, _ = plant_feet(verb, clip, k, SlopeFloor(8.0))
+    chains = verb.leg_chains()
+    allowed = set(chains.upper) | set(chains.middle) | set(chains.end)
+    others = [j for j in range(verb.skeleton.num_joints) if j not in allowed]
+    assert np.array_equal(planted.rotations[:, others], clip.rotations[:, others])
+    assert not np.allclose(planted.rotations[:, sorted(allowed)], clip.rotations[:, sorted(allowed)])
+    moved = planted.translations != clip.translations
+    assert not moved[:, 1:].any() and not moved[:, 0, [0, 2]].any()  # only the root's height
+
+
+def _angular_speed(clip):
+    dots = np.clip(np.abs(np.sum(clip.rotations[1:] * clip.rotations[:-1], axis=-1)), 0.0, 1.0)
+    return 2.0 * np.arccos(dots) * clip.fps  # (F-1, J) rad/s
+
+
+@pytest.mark.parametrize("name", WALKS)
+def test_no_angular_velocity_spike_where_constraints_open_or_close(verbs, name):
+    verb, _ = verbs[name]
+    for pts in _points(verb).values():
+        for p in pts:
+            clip, k = verb.synthesize(p, cycles=3)
+            planted, report = plant_feet(verb, clip, k)
+            free, held = _angular_speed(clip), _angular_speed(planted)
+            events = sorted({f for spans in report.phases for a, b in spans for f in (a, b)})
+            near = np.zeros(len(held), dtype=bool)
+            for f in events:
+                near[max(f - 5, 0) : f + 5] = True
+            assert held[near].max() <= 1.5 * free.max()
+            assert held.max() <= 1.5 * free.max()
+
+
+@pytest.mark.parametrize("name", WALKS)
+def test_feet_sit_on_a_slope(verbs, name):
+    verb, _ = verbs[name]
+    slope = SlopeFloor(10.0)
+    for p in (verb.points[0], verb.points.mean(axis=0)):
+        clip, k = verb.synthesize(p, cycles=3)
+        flat, report = plant_feet(verb, clip, k)
+        up, _ = plant_feet(verb, clip, k, slope)
+        feet = verb.skeleton.feet()
+        on_slope = foot_points(up, feet)
+        on_flat = foot_points(flat, feet)
+        height_slope = on_slope[..., 1] - slope.height(on_slope[..., [0, 2]])  # (F, feet, heel/toe)
+        height_flat = on_flat[..., 1] - verb.floor
+        for i, spans in enumerate(report.phases):
+            for a, b in spans:
+                assert np.abs(height_slope[a:b, i] - height_flat[a:b, i]).max() <= 0.003
+        # And it climbs: three cycles up a 10° slope raise the hips by tan(10°) × the distance walked.
+        root = up.global_positions()[:, verb.encoding.body_root]
+        walked = root[-1, 2] - root[0, 2]
+        assert root[-1, 1] - root[0, 1] == pytest.approx(np.tan(np.radians(10)) * walked, abs=0.05)
+        assert foot_drift(verb, up, k).max() <= 0.01
+
+
+def test_unreachable_targets_leave_a_finite_pose_and_a_warning(verbs):
+    verb, _ = verbs["cmu_walk"]
+    clip, k = verb.synthesize(verb.points[0], cycles=1)
+    chains = verb.leg_chains()
+    # A target far beyond the leg.
+    targets = clip.global_positions()[:, effector_joints(verb)] + np.array([3.0, 0.0, 0.0])
+    for solve in (ik.solve, ik.solve_reference):
+        result = solve(chains, clip.rotations, clip.translations, targets)
+        assert np.all(np.isfinite(result.rotations)) and np.all(np.isfinite(result.translations))
+        assert result.unreachable.all()
+    # A floor that falls away a metre and a half under the feet: no crouching into the pit.
+    pit = FunctionFloor(lambda x, z: np.where(np.abs(x) > 0.05, -1.5, 0.0))
+    planted, report = plant_feet(verb, clip, k, pit)
+    assert np.all(np.isfinite(planted.rotations)) and np.all(np.isfinite(planted.translations))
+    assert report.unreachable > 0 and "could not reach" in report.warnings[0]
+    assert report.root_drop.max() <= ik.MAX_DROP * chains.reach.min() + 1e-12
+
+
+def test_compiled_solver_equals_the_reference_and_batch_equals_single(verbs):
+    verb, _ = verbs["bandai_styled_walk"]
+    chains = verb.leg_chains()
+    clip, _ = verb.synthesize(verb.points[1], cycles=1)
+    rng = np.random.default_rng(4)
+    targets = clip.global_positions()[:, effector_joints(verb)] + rng.normal(scale=0.05, size=(clip.num_frames, 2, 3))
+    tilts = np.broadcast_to(np.eye(3), targets.shape[:-1] + (3, 3))
+    fast = ik.solve(chains, clip.rotations, clip.translations, targets, tilts)
+    slow = ik.solve_reference(chains, clip.rotations, clip.translations, targets, tilts)
+    assert np.abs(np.abs(np.sum(fast.rotations * slow.rotations, axis=-1)) - 1).max() <= 1e-12
+    assert np.abs(fast.translations - slow.translations).max() <= 1e-12
+    assert fast.residual.max() < 1e-3 and not fast.unreachable.any()  # reachable targets are reached
+    for f in (0, 7, clip.num_frames - 1):
+        one = ik.solve(chains, clip.rotations[f], clip.translations[f], targets[f], tilts[f])
+        assert np.abs(np.abs(np.sum(one.rotations * fast.rotations[f], axis=-1)) - 1).max() <= 1e-12
+
+
+def test_floors(tmp_path):
+    xz = np.array([[0.0, 0.0], [1.0, 2.0]])
+    assert np.allclose(FlatFloor(0.3).height(xz), 0.3)
+    slope = parse_floor("slope:10")
+    assert np.allclose(slope.height(xz), [0.0, 2.0 * np.tan(np.radians(10))])
+    n = slope.normal(xz)
+    assert np.allclose(np.linalg.norm(n, axis=-1), 1.0) and np.allclose(n[:, 1], np.cos(np.radians(10)))
+    x, z = np.meshgrid(np.arange(11) * 0.5, np.arange(11) * 0.5)
+    path = tmp_path / "hill.npz"
+    np.savez(path, heights=0.1 * x + 0.2 * z, spacing=0.5, origin=np.array([0.0, 0.0]))
+    hill = parse_floor(str(path))
+    assert isinstance(hill, HeightMapFloor)
+    assert np.allclose(hill.height(np.array([[1.25, 2.0], [3.0, 0.75]])), [0.525, 0.45])
+    with pytest.raises(AdverbsError, match="no such height map"):
+        parse_floor(str(tmp_path / "none.npz"))
+    np.savez(tmp_path / "bad.npz", heights=np.zeros((3, 3)))
+    with pytest.raises(AdverbsError, match="spacing"):
+        parse_floor(str(tmp_path / "bad.npz"))
+    with pytest.raises(AdverbsError, match="not a number"):
+        parse_floor("slope:steep")
