@@ -18,6 +18,7 @@ demo: $(STAMP)
 	$(BIN)/adverbs describe out/bandai_styled_walk.verb
 	$(BIN)/adverbs synth out/bandai_styled_walk.verb --adverb valence=1 --adverb energy=0.6 --adverb turn=45 --cycles 4 -o out/happy_walk_turning_left.bvh
 	$(BIN)/adverbs synth out/bandai_styled_walk.verb --adverb valence=-1 --adverb energy=-1 --adverb turn=-40 --cycles 3 -o out/sad_walk_turning_right.bvh
+	$(BIN)/adverbs synth out/bandai_styled_walk.verb --adverb valence=0.3 --adverb energy=0.3 --adverb turn=0 --cycles 4 --floor slope:10 -o out/walk_up_a_10_degree_slope.bvh
 	$(BIN)/adverbs build specs/cmu_walk.toml -o out/cmu_walk.verb
 	$(BIN)/adverbs synth out/cmu_walk.verb --adverb speed=2.1 --adverb turn=0 --cycles 4 -o out/cmu_walk_faster_than_any_example.bvh
 	$(BIN)/adverbs evaluate out/cmu_walk.verb --png out/cmu_walk_evaluate.png
