@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 from scipy.interpolate import RegularGridInterpolator
 
+from . import quat
 from .errors import AdverbsError
 
 
@@ -146,12 +147,7 @@ def parse_floor(text: str) -> Floor:
 
 def tilt(normals: np.ndarray) -> np.ndarray:
     """Rotations ``(..., 3, 3)`` taking the vertical onto each normal ``(..., 3)`` by the shortest turn."""
-    up = np.array([0.0, 1.0, 0.0])
-    axis = np.cross(up, normals)
-    s = np.linalg.norm(axis, axis=-1)
-    c = normals[..., 1]
-    k = axis / np.where(s > 1e-12, s, 1.0)[..., None]
-    kx, ky, kz = k[..., 0], k[..., 1], k[..., 2]
-    zero = np.zeros_like(kx)
-    skew = np.stack([zero, -kz, ky, kz, zero, -kx, -ky, kx, zero], axis=-1).reshape(k.shape[:-1] + (3, 3))
-    return np.eye(3) + s[..., None, None] * skew + (1.0 - c)[..., None, None] * (skew @ skew)
+    axis = np.cross(np.array([0.0, 1.0, 0.0]), normals)
+    s = np.linalg.norm(axis, axis=-1, keepdims=True)
+    angle = np.arctan2(s, normals[..., 1:2])
+    return quat.rotvec_matrix(axis / np.where(s > 1e-12, s, 1.0) * angle)

@@ -106,57 +106,6 @@ class LegChains:
         )
 
 
-def _matrix(q: np.ndarray) -> np.ndarray:
-    """Rotation matrices ``(..., 3, 3)`` of unit quaternions ``(..., 4)``."""
-    x, y, z, w = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    xx, yy, zz = x * x, y * y, z * z
-    xy, xz, yz, wx, wy, wz = x * y, x * z, y * z, w * x, w * y, w * z
-    return np.stack(
-        [
-            1 - 2 * (yy + zz), 2 * (xy - wz), 2 * (xz + wy),
-            2 * (xy + wz), 1 - 2 * (xx + zz), 2 * (yz - wx),
-            2 * (xz - wy), 2 * (yz + wx), 1 - 2 * (xx + yy),
-        ],
-        axis=-1,
-    ).reshape(q.shape[:-1] + (3, 3))  # fmt: skip
-
-
-def _quaternion(m: np.ndarray) -> np.ndarray:
-    """Unit quaternions ``(..., 4)`` of rotation matrices ``(..., 3, 3)`` (Shepperd's method, stable)."""
-    t = np.stack([m[..., 0, 0], m[..., 1, 1], m[..., 2, 2], m[..., 0, 0] + m[..., 1, 1] + m[..., 2, 2]], axis=-1)
-    k = np.argmax(t, axis=-1)
-    out = np.empty(m.shape[:-2] + (4,))
-    s = np.sqrt(np.maximum(1.0 + 2.0 * np.take_along_axis(t, k[..., None], -1)[..., 0] - t[..., 3], 1e-300))
-    s = np.where(k == 3, np.sqrt(np.maximum(1.0 + t[..., 3], 1e-300)), s)
-    # Largest-component branches; each writes (x, y, z, w) scaled by 1/(2s) except the dominant one.
-    r21, r12, r02, r20, r10, r01 = m[..., 2, 1], m[..., 1, 2], m[..., 0, 2], m[..., 2, 0], m[..., 1, 0], m[..., 0, 1]
-    inv = 0.5 / s
-    cand = np.stack(
-        [
-            np.stack([0.5 * s, (r10 + r01) * inv, (r02 + r20) * inv, (r21 - r12) * inv], -1),
-            np.stack([(r10 + r01) * inv, 0.5 * s, (r21 + r12) * inv, (r02 - r20) * inv], -1),
-            np.stack([(r02 + r20) * inv, (r21 + r12) * inv, 0.5 * s, (r10 - r01) * inv], -1),
-            np.stack([(r21 - r12) * inv, (r02 - r20) * inv, (r10 - r01) * inv, 0.5 * s], -1),
-        ],
-        axis=-2,
-    )
-    out = np.take_along_axis(cand, k[..., None, None], -2)[..., 0, :]
-    return out
-
-
-def _axis_angle_matrix(v: np.ndarray) -> np.ndarray:
-    """Rotation matrices ``(..., 3, 3)`` of rotation vectors ``(..., 3)`` (Rodrigues)."""
-    angle = np.sqrt(np.sum(v * v, axis=-1))
-    small = angle < 1e-12
-    a = np.where(small, 1.0, angle)
-    k = v / a[..., None]
-    s, c = np.sin(angle)[..., None, None], (1.0 - np.cos(angle))[..., None, None]
-    kx, ky, kz = k[..., 0], k[..., 1], k[..., 2]
-    zero = np.zeros_like(kx)
-    skew = np.stack([zero, -kz, ky, kz, zero, -kx, -ky, kx, zero], axis=-1).reshape(k.shape[:-1] + (3, 3))
-    return np.eye(3) + s * skew + c * (skew @ skew)
-
-
 @dataclass
 class IKResult:
     """The corrected pose and what could not be done."""
@@ -205,13 +154,13 @@ def solve_reference(
     p = np.zeros(lead + (3,))
     for j in chains.above:
         p = p + (g @ translations[..., j, :, None])[..., 0]
-        g = g @ _matrix(rotations[..., j, :])
+        g = g @ quat.to_matrix(rotations[..., j, :])
     g_parent = g[..., None, :, :]  # (..., 1, 3, 3)
     hip = p[..., None, :] + (g_parent @ translations[..., chains.upper, :, None])[..., 0]  # (..., L, 3)
 
-    l_upper = _matrix(rotations[..., chains.upper, :])  # (..., L, 3, 3)
-    l_middle = _matrix(rotations[..., chains.middle, :])
-    g_end = g_parent @ l_upper @ l_middle @ _matrix(rotations[..., chains.end, :])  # the foot's global frame
+    l_upper = quat.to_matrix(rotations[..., chains.upper, :])  # (..., L, 3, 3)
+    l_middle = quat.to_matrix(rotations[..., chains.middle, :])
+    g_end = g_parent @ l_upper @ l_middle @ quat.to_matrix(rotations[..., chains.end, :])  # the foot's global frame
     wanted_end = g_end if tilts is None else tilts @ g_end
     targets = targets - (wanted_end @ chains.tip_offset[..., None])[..., 0]  # where the end must go
 
@@ -258,7 +207,7 @@ def solve_reference(
         shrink = np.minimum(1.0, MAX_STEP / np.maximum(size, 1e-12))
         hip_step = hip_step * shrink[..., None]
         knee_step = knee_step * shrink
-        g_upper = _axis_angle_matrix(hip_step) @ g_upper
+        g_upper = quat.rotvec_matrix(hip_step) @ g_upper
         # Knee about its hinge, flexion kept at or above min_flex.
         shin_dir = (l_middle @ o_e[..., None])[..., 0]
         flex = np.arctan2(np.sum(hinge * np.cross(o_u, shin_dir), axis=-1), np.sum(o_u * shin_dir, axis=-1))
@@ -270,9 +219,9 @@ def solve_reference(
     residual = np.linalg.norm(targets - end, axis=-1)
     l_upper = np.swapaxes(g_parent, -1, -2) @ g_upper
     l_end = np.swapaxes(g_upper @ l_middle, -1, -2) @ wanted_end
-    rotations[..., chains.upper, :] = _quaternion(l_upper)
-    rotations[..., chains.middle, :] = _quaternion(l_middle)
-    rotations[..., chains.end, :] = _quaternion(l_end)
+    rotations[..., chains.upper, :] = quat.from_matrix(l_upper)
+    rotations[..., chains.middle, :] = quat.from_matrix(l_middle)
+    rotations[..., chains.end, :] = quat.from_matrix(l_end)
     return IKResult(rotations, translations, drop, residual > 1e-3, residual)
 
 

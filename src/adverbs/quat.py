@@ -185,3 +185,54 @@ def slerp_frames(q: np.ndarray, positions: np.ndarray) -> np.ndarray:
     # a⁻¹b as a rotation vector, scaled by u, applied to a: the geodesic from a to b.
     step = exp(log(mul(inv(a), b)) * u)
     return normalize(mul(a, step))
+
+
+def to_matrix(q: np.ndarray) -> np.ndarray:
+    """Rotation matrices ``(..., 3, 3)`` of unit quaternions ``(..., 4)``."""
+    x, y, z, w = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    xx, yy, zz = x * x, y * y, z * z
+    xy, xz, yz, wx, wy, wz = x * y, x * z, y * z, w * x, w * y, w * z
+    return np.stack(
+        [
+            1 - 2 * (yy + zz), 2 * (xy - wz), 2 * (xz + wy),
+            2 * (xy + wz), 1 - 2 * (xx + zz), 2 * (yz - wx),
+            2 * (xz - wy), 2 * (yz + wx), 1 - 2 * (xx + yy),
+        ],
+        axis=-1,
+    ).reshape(q.shape[:-1] + (3, 3))  # fmt: skip
+
+
+def from_matrix(m: np.ndarray) -> np.ndarray:
+    """Unit quaternions ``(..., 4)`` of rotation matrices ``(..., 3, 3)`` (Shepperd's method, stable)."""
+    t = np.stack([m[..., 0, 0], m[..., 1, 1], m[..., 2, 2], m[..., 0, 0] + m[..., 1, 1] + m[..., 2, 2]], axis=-1)
+    k = np.argmax(t, axis=-1)
+    out = np.empty(m.shape[:-2] + (4,))
+    s = np.sqrt(np.maximum(1.0 + 2.0 * np.take_along_axis(t, k[..., None], -1)[..., 0] - t[..., 3], 1e-300))
+    s = np.where(k == 3, np.sqrt(np.maximum(1.0 + t[..., 3], 1e-300)), s)
+    # Largest-component branches; each writes (x, y, z, w) scaled by 1/(2s) except the dominant one.
+    r21, r12, r02, r20, r10, r01 = m[..., 2, 1], m[..., 1, 2], m[..., 0, 2], m[..., 2, 0], m[..., 1, 0], m[..., 0, 1]
+    inv = 0.5 / s
+    cand = np.stack(
+        [
+            np.stack([0.5 * s, (r10 + r01) * inv, (r02 + r20) * inv, (r21 - r12) * inv], -1),
+            np.stack([(r10 + r01) * inv, 0.5 * s, (r21 + r12) * inv, (r02 - r20) * inv], -1),
+            np.stack([(r02 + r20) * inv, (r21 + r12) * inv, 0.5 * s, (r10 - r01) * inv], -1),
+            np.stack([(r21 - r12) * inv, (r02 - r20) * inv, (r10 - r01) * inv, 0.5 * s], -1),
+        ],
+        axis=-2,
+    )
+    out = np.take_along_axis(cand, k[..., None, None], -2)[..., 0, :]
+    return out
+
+
+def rotvec_matrix(v: np.ndarray) -> np.ndarray:
+    """Rotation matrices ``(..., 3, 3)`` of rotation vectors ``(..., 3)`` (Rodrigues)."""
+    angle = np.sqrt(np.sum(v * v, axis=-1))
+    small = angle < 1e-12
+    a = np.where(small, 1.0, angle)
+    k = v / a[..., None]
+    s, c = np.sin(angle)[..., None, None], (1.0 - np.cos(angle))[..., None, None]
+    kx, ky, kz = k[..., 0], k[..., 1], k[..., 2]
+    zero = np.zeros_like(kx)
+    skew = np.stack([zero, -kz, ky, kz, zero, -kx, -ky, kx, zero], axis=-1).reshape(k.shape[:-1] + (3, 3))
+    return np.eye(3) + s * skew + c * (skew @ skew)
