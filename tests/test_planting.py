@@ -171,3 +171,23 @@ def test_floors(tmp_path):
         parse_floor(str(tmp_path / "bad.npz"))
     with pytest.raises(AdverbsError, match="not a number"):
         parse_floor("slope:steep")
+
+
+def test_toe_offs_as_keytimes_close_the_constraints(tmp_path):
+    from conftest import CMU
+
+    from adverbs.spec import build_from_spec
+
+    spec = tmp_path / "walk.toml"
+    spec.write_text(
+        'name = "w"\nnum_cp = 10\ncut = { foot = "left", steps = 2, events = "contacts" }\n'
+        '[[adverbs]]\nname = "turn"\nmeasure = "turn_rate"\n'
+        f'[[examples]]\nname = "a"\nfile = "{CMU / "16_15_walk.bvh"}"\n'
+        f'[[examples]]\nname = "b"\nfile = "{CMU / "16_13_walk_veer_right.bvh"}"\n'
+    )
+    verb = build_from_spec(spec)
+    assert verb.keytime_names == ("left strike", "right toe-off", "right strike", "left toe-off", "left strike")
+    assert verb.constraints == (Constraint("ltoes", 0, 3), Constraint("rtoes", 2, 1))
+    clip, k = verb.synthesize(verb.points[0], cycles=2)
+    planted, _ = plant_feet(verb, clip, k)
+    assert foot_drift(verb, planted, k).max() <= 0.01

@@ -69,9 +69,8 @@ def auto_constraints(keytime_names: Sequence[str], clips: Sequence[Clip], cyclic
         if strike not in names:
             continue
         k = names.index(strike)
-        order = [(k + i) % n for i in range(1, n)] if cyclic else list(range(k + 1, n))
-        if cyclic:  # the last keytime is the first one again
-            order = [i for i in order if i != n - 1] + ([n - 1] if names[0] == names[-1] else [])
+        # Keytimes after this one; in a cycle the last keytime is the first one again, so wrap to it.
+        order = list(range(k + 1, n - 1)) + list(range(k)) if cyclic else list(range(k + 1, n))
         close = next((i for i in order if names[i] == f"{foot.side} toe-off"), None)
         if close is None:
             close = next((i for i in order if names[i].endswith(" strike") and names[i] != strike), None)
