@@ -17,7 +17,7 @@ from timing import median_seconds, print_table
 from adverbs import ik
 from adverbs.evaluate import obedience_points
 from adverbs.floor import SlopeFloor, tilt
-from adverbs.planting import effector_joints, foot_drift, plant_feet
+from adverbs.planting import effector_joints, foot_drift, plant_feet, plant_feet_many
 from adverbs.spec import build_from_spec
 
 SPECS = Path(__file__).resolve().parent.parent / "specs"
@@ -54,6 +54,15 @@ def main() -> None:
         rows.append(
             (f"IK for two feet, {crowd:,} creatures in one call (per creature-frame)", f"{s * 1e6 / crowd:.2f} µs")
         )
+    motions = [verb.synthesize(p, cycles=2) for p in rng.uniform(lo, hi, size=(200, len(lo)))]
+    frames = sum(c.num_frames for c, _ in motions)
+    s = median_seconds(lambda: plant_feet_many(verb, motions, slope), 3)
+    rows.append(
+        (
+            "plant_feet_many: 200 creatures × 2 cycles on a slope, all of it (per creature-frame)",
+            f"{s * 1e6 / frames:.1f} µs",
+        )
+    )
     r, t, x = rot[:200], trans[:200], targets[:200]
     s = median_seconds(lambda: ik.solve_reference(chains, r, t, x), 5)
     rows.append(("NumPy reference solver, 200 creatures (per creature-frame)", f"{s * 1e6 / 200:.1f} µs"))

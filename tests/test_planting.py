@@ -191,3 +191,19 @@ def test_toe_offs_as_keytimes_close_the_constraints(tmp_path):
     clip, k = verb.synthesize(verb.points[0], cycles=2)
     planted, _ = plant_feet(verb, clip, k)
     assert foot_drift(verb, planted, k).max() <= 0.01
+
+
+def test_many_creatures_at_once_equal_one_at_a_time(verbs):
+    from adverbs.planting import plant_feet_many
+
+    verb, _ = verbs["cmu_walk"]
+    rng = np.random.default_rng(2)
+    lo, hi = verb.points.min(axis=0), verb.points.max(axis=0)
+    motions = [verb.synthesize(p, cycles=c) for p, c in zip(rng.uniform(lo, hi, size=(4, 2)), (1, 2, 3, 1.5))]
+    slope = SlopeFloor(6.0)
+    together = plant_feet_many(verb, motions, slope)
+    for (clip, k), (planted, report) in zip(motions, together):
+        alone, alone_report = plant_feet(verb, clip, k, slope)
+        assert planted.num_frames == clip.num_frames
+        assert np.abs(planted.global_positions() - alone.global_positions()).max() <= 1e-9
+        assert report.phases == alone_report.phases and report.unreachable == alone_report.unreachable

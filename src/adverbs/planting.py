@@ -14,6 +14,7 @@ phase, the largest horizontal distance of the planted effector from where the ph
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -57,58 +58,80 @@ def plant_feet(
 ) -> tuple[Clip, PlantingReport]:
     """Enforce ``verb``'s constraints on ``clip`` (synthesized by it with ``keytimes``) on ``floor``.
 
-    Offline, so every frame is solved in one batched call. A released foot goes back to the verb's
-    motion in joint space: its chain's rotations turn (slerp, smoothstep weight) from the last held
+    Every frame is solved in one batched call. A released foot goes back to the verb's motion in
+    joint space: its chain's rotations turn (slerp, smoothstep weight) from the last held
     configuration to the free one over the swing, and a root drop the hold needed fades out the
     same way, so no joint speeds up where a constraint closes.
     """
-    floor = FlatFloor(verb.floor) if floor is None else floor
-    f = clip.num_frames
-    if not verb.constraints:
-        return clip, PlantingReport([], np.zeros(f), 0)
-    chains = verb.leg_chains()
-    gpos, _ = clip.forward_kinematics()
-    spans = phase_frames(verb, keytimes, clip)
-    time = np.arange(f) / clip.fps
-    free = np.empty((f, len(spans), 3))  # where the verb puts each effector, mapped onto the floor
-    held = np.empty_like(free)  # ... and pinned during its contact phases
-    releases = []  # (leg, first released frame, frames until the next landing, smoothstep weights)
-    for i, (tip, frames) in enumerate(zip(effector_joints(verb), spans)):
-        xz = gpos[:, tip][:, [0, 2]]
-        pinned = xz.copy()
-        for n, (a, b) in enumerate(frames):
-            pinned[a:b] = xz[a]
-            until = min(frames[n + 1][0] if n + 1 < len(frames) else f, b + int(round(release * clip.fps)))
-            if until > b:
-                s = (time[b:until] - time[b - 1]) / (time[until - 1] - time[b - 1] + 1.0 / clip.fps)
-                releases.append((i, b, until, s * s * (3.0 - 2.0 * s)))
-        for out, where in ((free, xz), (held, pinned)):
-            out[:, i, [0, 2]] = where
-            out[:, i, 1] = floor.height(where) + (gpos[:, tip, 1] - verb.floor)
+    return plant_feet_many(verb, [(clip, keytimes)], floor, release)[0]
 
-    translations = clip.translations.copy()
-    translations[:, 0, 1] += floor.height(gpos[:, verb.encoding.body_root][:, [0, 2]]) - verb.floor
-    tilts_held = None if floor.is_flat else tilt(floor.normal(held[..., [0, 2]]))
-    first = ik.solve(chains, clip.rotations, translations, held, tilts_held)
+
+def plant_feet_many(
+    verb: Verb,
+    motions: Sequence[tuple[Clip, np.ndarray]],
+    floor: Floor | None = None,
+    release: float = RELEASE,
+) -> list[tuple[Clip, PlantingReport]]:
+    """:func:`plant_feet` for many creatures' motions of one verb (each with its own adverbs, keytimes
+    and length): every frame of every creature goes through the same two batched IK solves.
+    """
+    floor = FlatFloor(verb.floor) if floor is None else floor
+    if not verb.constraints:
+        return [(clip, PlantingReport([], np.zeros(clip.num_frames), 0)) for clip, _ in motions]
+    chains = verb.leg_chains()
+    tips = effector_joints(verb)
+    held, trans, spans, releases, starts = [], [], [], [], [0]
+    for clip, keytimes in motions:
+        f, o = clip.num_frames, starts[-1]
+        gpos, _ = clip.forward_kinematics()
+        phases_c = phase_frames(verb, keytimes, clip)
+        time = np.arange(f) / clip.fps
+        target = np.empty((f, len(tips), 3))  # where each effector goes: held in its phases, on the floor
+        for i, (tip, frames) in enumerate(zip(tips, phases_c)):
+            xz = gpos[:, tip][:, [0, 2]].copy()
+            for n, (a, b) in enumerate(frames):
+                xz[a:b] = xz[a]
+                until = min(frames[n + 1][0] if n + 1 < len(frames) else f, b + int(round(release * clip.fps)))
+                if until > b:  # released over the swing, until the next landing
+                    s = (time[b:until] - time[b - 1]) / (time[until - 1] - time[b - 1] + 1.0 / clip.fps)
+                    releases.append((i, o + b, o + until, s * s * (3.0 - 2.0 * s)))
+            target[:, i, [0, 2]] = xz
+            target[:, i, 1] = floor.height(xz) + (gpos[:, tip, 1] - verb.floor)
+        t = clip.translations.copy()
+        t[:, 0, 1] += floor.height(gpos[:, verb.encoding.body_root][:, [0, 2]]) - verb.floor
+        held.append(target)
+        trans.append(t)
+        spans.append(phases_c)
+        starts.append(o + f)
+
+    rotations = np.concatenate([clip.rotations for clip, _ in motions])
+    translations = np.concatenate(trans)
+    targets = np.concatenate(held)
+    tilts = None if floor.is_flat else tilt(floor.normal(targets[..., [0, 2]]))
+    first = ik.solve(chains, rotations, translations, targets, tilts)
     # A drop the hold needed fades out over the release instead of ending at once.
     min_drop = first.root_drop.copy()
     for _, b, until, w in releases:
         min_drop[b:until] = np.maximum(min_drop[b:until], (1.0 - w) * first.root_drop[b - 1])
-    result = ik.solve(chains, clip.rotations, translations, held, tilts_held, min_drop=min_drop)
+    result = ik.solve(chains, rotations, translations, targets, tilts, min_drop=min_drop)
     rotations = result.rotations
     for i, b, until, w in releases:
         joints = [chains.upper[i], chains.middle[i], chains.end[i]]
         start = np.broadcast_to(rotations[b - 1, joints], (until - b, len(joints), 4))
         rotations[b:until, joints] = quat.slerp(start, rotations[b:until, joints], w[:, None])
-    unreachable = int(np.count_nonzero(result.unreachable))
-    warnings = []
-    if unreachable:
-        warnings.append(
-            f"{unreachable} effector-frames could not reach their targets (largest miss "
-            f"{1000 * result.residual.max():.0f} mm); the pose was left as close as it gets"
-        )
-    planted = clip.replace(rotations=rotations, translations=result.translations)
-    return planted, PlantingReport(spans, result.root_drop, unreachable, warnings)
+
+    out = []
+    for (clip, _), phases_c, a, b in zip(motions, spans, starts[:-1], starts[1:]):
+        unreachable = int(np.count_nonzero(result.unreachable[a:b]))
+        warnings = []
+        if unreachable:
+            warnings.append(
+                f"{unreachable} effector-frames could not reach their targets (largest miss "
+                f"{1000 * result.residual[a:b].max():.0f} mm); the pose was left as close as it gets"
+            )
+        planted = clip.replace(rotations=rotations[a:b], translations=result.translations[a:b])
+        out.append((planted, PlantingReport(phases_c, result.root_drop[a:b], unreachable, warnings)))
+    return out
 
 
 def planted_drift(positions: np.ndarray, spans: list[tuple[int, int]]) -> np.ndarray:
