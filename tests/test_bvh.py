@@ -243,3 +243,28 @@ def test_every_prefix_of_a_real_file_reads_or_raises_bvh_error(path):
     for cut in rng.integers(0, len(text) - 1, size=40):
         with pytest.raises(BVHError):
             parse_bvh(text[:cut], source=path)
+
+
+def test_two_channel_joints_write_back():
+    text = (CMU / "16_21_walk.bvh").read_text().replace("\r\n", "\n")
+    lines = text.split("\n")
+    i = next(k for k, line in enumerate(lines) if "JOINT lfemur" in line)
+    lines[i + 3] = lines[i + 3].replace("CHANNELS 3 Zrotation Xrotation Yrotation", "CHANNELS 2 Zrotation Xrotation")
+    m = lines.index("MOTION")
+    for k in range(m + 3, len(lines)):
+        if lines[k].strip():
+            values = lines[k].split()
+            values[6:9] = ["10.0", "120.0"]  # past 90°: the principal Euler solution would need the missing axis
+            lines[k] = " ".join(values)
+    clip = parse_bvh("\n".join(lines))
+    again = parse_bvh(format_bvh(clip))
+    assert np.abs(np.abs(np.sum(clip.rotations * again.rotations, axis=-1)) - 1).max() < 1e-12
+
+
+def test_frame_rates():
+    text = (CMU / "16_21_walk.bvh").read_text()
+    assert parse_bvh(text).fps == 30.0  # 0.0333333 is 1/30 rounded
+    assert parse_bvh(text.replace("Frame Time:\t0.0333333", "Frame Time: 0.03")).fps == pytest.approx(100 / 3)
+    assert parse_bvh(text.replace("Frame Time:\t0.0333333", "Frame Time: 0.0416667")).fps == 24.0
+    with pytest.raises(BVHError, match="Frame Time"):
+        parse_bvh(text.replace("Frame Time:\t0.0333333", "Frame Time: 1e-320"))

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import subprocess
+from pathlib import Path
 import sys
 
 import numpy as np
@@ -55,3 +56,16 @@ def test_errors_name_the_file_and_line_and_exit_1(tmp_path):
     assert r.returncode == 1 and "empty" in r.stderr
     r = run("convert", CMU / "16_21_walk.bvh", tmp_path / "x.bvh", "--fps", "-3")
     assert r.returncode == 2 and "positive" in r.stderr
+
+
+def test_outputs_that_cannot_be_written_and_bad_floors(tmp_path):
+    r = run("convert", CMU / "16_21_walk.bvh", tmp_path)  # a directory
+    assert r.returncode == 1 and "adverbs: error:" in r.stderr and "Traceback" not in r.stderr
+    verb = tmp_path / "w.verb"
+    assert run("build", Path(__file__).parent.parent / "specs" / "cmu_walk.toml", "-o", verb).returncode == 0
+    for floor in ("flat:nan", "slope:95"):
+        r = run("synth", verb, "--floor", floor, "-o", tmp_path / "x.bvh")
+        assert r.returncode == 1 and "Traceback" not in r.stderr, r.stderr
+    np.savez(tmp_path / "odd.npz", heights=np.zeros((4, 4)), spacing=np.array([0.5, 0.5]))
+    r = run("synth", verb, "--floor", tmp_path / "odd.npz", "-o", tmp_path / "x.bvh")
+    assert r.returncode == 1 and "spacing must be one number" in r.stderr

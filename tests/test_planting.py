@@ -69,7 +69,9 @@ def test_ik_changes_only_the_leg_chains_and_root_height(verbs, name):
     assert np.array_equal(planted.rotations[:, others], clip.rotations[:, others])
     assert not np.allclose(planted.rotations[:, sorted(allowed)], clip.rotations[:, sorted(allowed)])
     moved = planted.translations != clip.translations
-    assert not moved[:, 1:].any() and not moved[:, 0, [0, 2]].any()  # only the root's height
+    pelvis = chains.above[-1]  # the joint that carries the legs: only its height changes
+    assert not np.delete(moved, pelvis, axis=1).any() and not moved[:, pelvis, [0, 2]].any()
+    assert moved[:, pelvis, 1].any()
 
 
 def _angular_speed(clip):
@@ -207,3 +209,47 @@ def test_many_creatures_at_once_equal_one_at_a_time(verbs):
         assert planted.num_frames == clip.num_frames
         assert np.abs(planted.global_positions() - alone.global_positions()).max() <= 1e-9
         assert report.phases == alone_report.phases and report.unreachable == alone_report.unreachable
+
+
+def test_solver_refuses_bad_input_the_same_way(verbs):
+    verb, _ = verbs["cmu_walk"]
+    clip, _ = verb.synthesize(verb.points[0], cycles=1)
+    chains = verb.leg_chains()
+    targets = clip.global_positions()[:, effector_joints(verb)]
+    bad = targets.copy()
+    bad[3, 0, 1] = np.nan
+    for solve in (ik.solve, ik.solve_reference):
+        with pytest.raises(AdverbsError, match="finite"):
+            solve(chains, clip.rotations, clip.translations, bad)
+        with pytest.raises(AdverbsError, match="damping"):
+            solve(chains, clip.rotations, clip.translations, targets, damping=0.0)
+    a = ik.solve(chains, clip.rotations, clip.translations, targets, min_drop=-0.05)
+    b = ik.solve_reference(chains, clip.rotations, clip.translations, targets, min_drop=-0.05)
+    assert np.all(a.root_drop >= 0) and np.allclose(a.root_drop, b.root_drop)
+
+
+def test_a_root_without_position_channels_still_rides_the_floor(tmp_path):
+    """Floor height and root drop go to the pelvis, so they survive writing the BVH."""
+    from conftest import CMU
+
+    from adverbs import read_bvh, write_bvh
+    from adverbs.spec import build_from_spec
+
+    files = []
+    for name in ("16_15_walk", "16_21_walk"):
+        text = (CMU / f"{name}.bvh").read_text().replace("\r\n", "\n")
+        text = text.replace("ROOT pelvis", "ROOT world\n{\n\tOFFSET 0 0 0\n\tCHANNELS 0\n\tJOINT pelvis", 1)
+        text = text.replace("MOTION", "}\nMOTION", 1)
+        (tmp_path / f"{name}.bvh").write_text(text)
+        files.append(tmp_path / f"{name}.bvh")
+    spec = tmp_path / "w.toml"
+    spec.write_text(
+        'name = "w"\nnum_cp = 10\ncut = { foot = "left", steps = 2 }\n[[adverbs]]\nname = "speed"\nmeasure = "speed"\n'
+        + "".join(f'[[examples]]\nname = "{f.stem}"\nfile = "{f}"\n' for f in files)
+    )
+    verb = build_from_spec(spec)
+    clip, k = verb.synthesize(verb.points[0], cycles=2)
+    planted, _ = plant_feet(verb, clip, k, SlopeFloor(10.0))
+    write_bvh(planted, tmp_path / "up.bvh")
+    again = read_bvh(tmp_path / "up.bvh")
+    assert np.abs(again.global_positions() - planted.global_positions()).max() < 1e-6

@@ -181,3 +181,24 @@ def test_constraint_mistakes(tmp_path):
         tmp_path, example("a", WALK, "adverbs = { mood = 0 }"), example("b", FAST, "adverbs = { mood = 1 }"), head=head
     )
     fails(path, None, "constraints[0]", "effector, open and close")
+
+
+def test_fields_of_the_wrong_type(tmp_path):
+    path = tmp_path / "walk.toml"
+    path.write_text(HEAD + '\n[[examples]]\nname = "a"\nfile = 5\n' + example("b", FAST, "adverbs = { mood = 1 }"))
+    fails(path, "a", "file", "must be a path")
+    path.write_text(
+        HEAD + example("a", WALK, 'cut = "left"\nadverbs = { mood = 0 }') + example("b", FAST, "adverbs = { mood = 1 }")
+    )
+    fails(path, "a", "cut", "must be a table")
+    head = HEAD.replace(
+        'name = "test-walk"', 'name = "test-walk"\nconstraints = [{ effector = "ltoes", open = true, close = 1 }]'
+    )
+    path = spec(
+        tmp_path, example("a", WALK, "adverbs = { mood = 0 }"), example("b", FAST, "adverbs = { mood = 1 }"), head=head
+    )
+    fails(path, None, "constraints", "'open' must be a keytime index")
+    fails(tmp_path, None, None, "cannot read")  # a directory
+    binary = tmp_path / "binary.toml"
+    binary.write_bytes(b"\xff\xfe\x00name")
+    fails(binary, None, None, "not a text file")

@@ -248,3 +248,44 @@ def test_load_rejects_other_versions_and_damaged_files(verbs, tmp_path):
         broken.save(good)
     assert good.read_bytes() == before
     assert not list(tmp_path.glob("*.tmp"))
+
+
+def test_euler_verbs_blend_on_one_branch(verbs):
+    """Euler channels of every example start on the branch nearest the mean rotation, so blends stay sane."""
+    from adverbs.spec import examples_from_spec, load_spec
+    from conftest import SPECS
+
+    spec = load_spec(SPECS / "bandai_styled_walk.toml")
+    examples, adverbs = examples_from_spec(spec)
+    spread = {}
+    for kind in ("euler", "logquat"):
+        verb = Verb.build("w", examples, adverbs, 16, kind, True)
+        a, b = (_pose_positions(verb, verb.coefficients[i]) for i in (0, 1))
+        mid = _pose_positions(verb, 0.5 * (verb.coefficients[0] + verb.coefficients[1]))
+        spread[kind] = np.linalg.norm(mid - 0.5 * (a + b), axis=-1).max()
+    assert spread["euler"] <= 2 * spread["logquat"] + 0.01, spread
+
+
+def test_refinements_survive_save_and_load(verbs, tmp_path):
+    verb, _ = verbs["cmu_walk"]
+    records = list(verb.examples)
+    records[3] = dataclasses.replace(records[3], refine=True)
+    refined = Verb(verb.name, verb.encoding, verb.adverbs, records, verb.points, verb.keytimes_table,
+                   verb.coefficients, verb.cyclic, verb.fps, verb.keytime_names, verb.constraints, verb.floor)  # fmt: skip
+    refined.save(tmp_path / "r.verb")
+    again = Verb.load(tmp_path / "r.verb")
+    assert again.examples[3].refine
+    p = np.array([1.0, 10.0])
+    assert np.allclose(again.weights(p), refined.weights(p)) and not np.allclose(refined.weights(p), verb.weights(p))
+
+
+def test_evaluate_with_too_few_examples_for_scipy(verbs):
+    from adverbs.evaluate import evaluate
+
+    verb, _ = verbs["cmu_walk"]
+    keep = [0, 2, 5]  # three examples, two adverbs: leave-one-out leaves two, too few for a linear RBF term
+    small = Verb("small", verb.encoding, verb.adverbs, [verb.examples[i] for i in keep], verb.points[keep],
+                 verb.keytimes_table[keep], verb.coefficients[keep], verb.cyclic, verb.fps, verb.keytime_names,
+                 verb.constraints, verb.floor)  # fmt: skip
+    table = evaluate(small).table()
+    assert "| scipy-rbf | n/a | n/a |" in table and "| ours |" in table

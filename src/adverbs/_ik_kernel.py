@@ -100,6 +100,7 @@ def solve_batch(
 ):  # fmt: skip
     n_legs = len(end)
     g = np.empty((3, 3))
+    outer = np.empty((3, 3))
     tmp = np.empty((3, 3))
     tmp2 = np.empty((3, 3))
     rj = np.empty((3, 3))
@@ -121,12 +122,13 @@ def solve_batch(
         g[0, 0] = g[1, 1] = g[2, 2] = 1.0
         p[:] = 0.0
         for j in above:
+            outer[:] = g
             _mv(g, trans[b, j], v3)
             p += v3
             _quat_to_mat(rot[b, j], rj)
             _mm(g, rj, tmp)
             g[:] = tmp
-        drop = drop_out[b]  # comes in holding the smallest drop asked for
+        drop = max(drop_out[b], 0.0)  # comes in holding the smallest drop asked for
         for i in range(n_legs):
             _mv(g, trans[b, upper[i]], v3)
             hips[i] = p + v3
@@ -149,7 +151,9 @@ def solve_batch(
                 drop = max(drop, need)
         drop = min(drop, max_drop)
         if drop > 0.0:
-            trans[b, 0, 1] -= drop
+            lift = above[len(above) - 1]
+            for k in range(3):  # world up, expressed in the pelvis's parent frame (row 1 of outerᵀ)
+                trans[b, lift, k] -= drop * outer[1, k]
             for i in range(n_legs):
                 hips[i, 1] -= drop
         drop_out[b] = drop

@@ -79,11 +79,14 @@ def parse_bvh(text: str, units: str | float = "auto", source: str | Path | None 
 
 
 def _frame_rate(frame_time: float, text: str) -> float:
-    """``1 / frame_time``, snapped to a whole rate when the printed time is that rate rounded (0.0333333 → 30)."""
+    """``1 / frame_time``, snapped to a whole rate when the printed time is that rate rounded (0.0333333 → 30).
+
+    Only a rounding of the printed time is snapped: within 1e-4 relative, so 0.03 s stays 33.3 fps.
+    """
+    del text
     fps = 1.0 / frame_time
     whole = round(fps)
-    decimals = len(text.partition(".")[2]) if "e" not in text.lower() else 17
-    if whole > 0 and abs(1.0 / whole - frame_time) <= 0.5 * 10.0 ** (-decimals) + 1e-15:
+    if whole > 0 and abs(fps - whole) <= 1e-4 * whole:
         return float(whole)
     return fps
 
@@ -260,8 +263,10 @@ def _parse_motion(
         frame_time = float(time_text)
     except ValueError:
         raise BVHError(f"Frame Time: {time_text!r} is not a number", source, time_line) from None
-    if not (np.isfinite(frame_time) and frame_time > 0):
-        raise BVHError(f"Frame Time must be positive, got {time_text!r}", source, time_line)
+    if not (np.isfinite(frame_time) and 1e-6 <= frame_time <= 1e4):
+        raise BVHError(
+            f"Frame Time must be a positive number of seconds (1e-6 to 1e4), got {time_text!r}", source, time_line
+        )
 
     rows = []
     numbers = []
@@ -390,13 +395,28 @@ def channel_values(clip: Clip) -> np.ndarray:
                 r += 1
         if not order and not np.allclose(np.abs(clip.rotations[:, j, 3]), 1.0, atol=1e-9):
             raise AdverbsError(f"joint {skel.names[j]!r} has no rotation channels but the clip rotates it")
+        if not skel.has_position_channels(j) and not np.allclose(clip.translations[:, j], skel.offsets[j], atol=1e-9):
+            raise AdverbsError(
+                f"joint {skel.names[j]!r} has no position channels but the clip moves it from its offset"
+            )
     return np.stack(cols, axis=1) if cols else np.zeros((clip.num_frames, 0))
 
 
 def _euler_for_channels(q: np.ndarray, order: str, name: str) -> np.ndarray:
-    """Unwrapped Euler angles ``(F, len(order))`` in radians; joints with fewer than 3 axes must not need more."""
+    """Unwrapped Euler angles ``(F, len(order))`` in radians; joints with fewer than 3 axes must not need more.
+
+    With fewer channels, the missing axes are appended and, of the two Tait–Bryan solutions, the one
+    whose extra angles are nearest zero (mod 2π) is kept.
+    """
     full = order + "".join(a for a in "XYZ" if a not in order)
-    angles = quat.unwrap_euler(full, quat.to_euler(full, q), axis=0)
-    if len(order) < 3 and np.abs(angles[:, len(order) :]).max(initial=0.0) > 1e-7:
-        raise AdverbsError(f"joint {name!r} has only channels {order} but the clip rotates it about other axes")
-    return angles[:, : len(order)]
+    angles = quat.to_euler(full, q)
+    if len(order) < 3:
+        alt = np.stack([angles[:, 0] + np.pi, np.pi - angles[:, 1], angles[:, 2] + np.pi], axis=-1)
+        wrap = lambda x: np.abs(np.angle(np.exp(1j * x)))  # noqa: E731 - distance from 0 mod 2π
+        use_alt = wrap(alt[:, len(order) :]).max(axis=1) < wrap(angles[:, len(order) :]).max(axis=1)
+        angles = np.where(use_alt[:, None], alt, angles)
+        extra = wrap(angles[:, len(order) :]).max(initial=0.0)
+        if extra > 1e-7:
+            raise AdverbsError(f"joint {name!r} has only channels {order} but the clip rotates it about other axes")
+        angles[:, len(order) :] = 0.0
+    return quat.unwrap_euler(full, angles, axis=0)[:, : len(order)]

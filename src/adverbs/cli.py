@@ -272,6 +272,8 @@ def _run(args: argparse.Namespace) -> None:
             feet = (
                 f"feet planted: drift per contact phase median {1000 * np.median(done):.1f} mm, "
                 f"max {1000 * done.max():.1f} mm (without IK {1000 * np.median(raw):.1f} / {1000 * raw.max():.1f} mm)"
+                if len(done)
+                else "no contact phase in this stretch of motion"
             )
             for warning in report.warnings:
                 print(f"adverbs: warning: {warning}", file=sys.stderr)
@@ -302,6 +304,9 @@ def main(argv: list[str] | None = None) -> int:
         _run(args)
     except AdverbsError as e:
         print(f"adverbs: error: {e}", file=sys.stderr)
+        return 1
+    except OSError as e:  # an output that cannot be written: a directory, no permission, a full disk
+        print(f"adverbs: error: {e.filename or ''}: {e.strerror}", file=sys.stderr)
         return 1
     return 0
 

@@ -43,7 +43,7 @@ def check_constraint(c: Constraint, skeleton: Skeleton, num_keytimes: int, cycli
         raise AdverbsError(f"constraint on {c.effector!r}: the effector needs two joints above it (a hip and a knee)")
     for field in ("open", "close"):
         k = getattr(c, field)
-        if not isinstance(k, int) or not 0 <= k < num_keytimes:
+        if isinstance(k, bool) or not isinstance(k, int) or not 0 <= k < num_keytimes:
             raise AdverbsError(f"constraint on {c.effector!r}: '{field}' must be a keytime index 0..{num_keytimes - 1}")
     if c.open == c.close or (c.close < c.open and not cyclic):
         raise AdverbsError(

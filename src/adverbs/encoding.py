@@ -99,7 +99,8 @@ class DofEncoding:
     lateral : (3,)
         Right-to-left hip direction in the body root's frame, for the heading.
     reference : (J, 4)
-        Per-joint reference rotations (the body root's is relative to its heading).
+        Per-joint reference rotations, the mean over the fitted clips (the body root's is relative to
+        its heading): the centre of the log map, and the branch every clip's Euler angles start on.
     base_translations : (J, 3)
         Translations of joints that have no translation DOFs.
     translated : (T,) int
@@ -162,9 +163,8 @@ class DofEncoding:
             local[:, root] = rel
             samples.append(local)
         local = np.concatenate(samples)
-        if kind == "logquat":
-            for j in np.flatnonzero(below):
-                reference[j] = _mean_rotation(local[:, j])
+        for j in np.flatnonzero(below):
+            reference[j] = _mean_rotation(local[:, j])
 
         names = list(ROOT_COLUMNS)
         for j in np.flatnonzero(below):
@@ -173,6 +173,22 @@ class DofEncoding:
         for j in translated:
             names.extend(f"{skel.names[j]}.{a}" for a in ("tx", "ty", "tz"))
         return cls(kind, skel, root, lateral, reference, base, translated, tuple(names), HEADING_SMOOTHING)
+
+    def __post_init__(self) -> None:
+        j = self.skeleton.num_joints
+        if self.kind not in KINDS:
+            raise AdverbsError(f"unknown DOF encoding {self.kind!r}")
+        if not 0 <= self.body_root < j:
+            raise AdverbsError(f"body root {self.body_root} is not a joint of the skeleton ({j} joints)")
+        if np.shape(self.reference) != (j, 4) or np.shape(self.base_translations) != (j, 3):
+            raise AdverbsError("encoding tables do not match the skeleton")
+        translated = np.asarray(self.translated, dtype=np.int64).reshape(-1)
+        if np.any((translated < 0) | (translated >= j)):
+            raise AdverbsError("encoding names joints the skeleton does not have")
+        object.__setattr__(self, "translated", translated)
+        expected = len(ROOT_COLUMNS) + 3 * len(self.rotated) + 3 * len(translated)
+        if len(self.names) != expected:
+            raise AdverbsError(f"encoding has {len(self.names)} column names, its layout needs {expected}")
 
     # ----- layout ----------------------------------------------------------------------------
     @property
@@ -236,10 +252,11 @@ class DofEncoding:
         out = np.empty(q.shape[:-1] + (3,))
         for k, j in enumerate(joints):
             order = _euler_order(self.skeleton, j)
-            e = quat.unwrap_euler(order, quat.to_euler(order, q[:, k]), axis=0)
-            # Start on the 2π branch nearest the reference, so every clip lands on the same one.
-            e0 = quat.to_euler(order, ref[k])
-            out[:, k] = e + 2.0 * np.pi * np.round((e0 - e[0]) / (2.0 * np.pi))
+            # Start on the solution and 2π branch nearest the reference (the mean rotation over all
+            # the fitted clips), so that every clip of a verb lands on the same one.
+            out[:, k] = quat.unwrap_euler(
+                order, quat.to_euler(order, q[:, k]), axis=0, near=quat.to_euler(order, ref[k])
+            )
         return out
 
     # ----- decode ----------------------------------------------------------------------------

@@ -62,9 +62,9 @@ class Evaluation:
         sep = "| --- | --- | --- |" + (" --- |" if self.goal_mm else "")
         rows = [f"Leave-one-out over {len(self.examples)} examples of {self.verb} (means):", "", head, sep]
         for m in METHODS:
-            row = f"| {m} | {np.mean(self.pose_mm[m]):.1f} | {np.mean(self.adverb_pct[m]):.2f} |"
+            row = f"| {m} | {_mean(self.pose_mm[m], 1)} | {_mean(self.adverb_pct[m], 2)} |"
             if self.goal_mm:
-                row += f" {np.mean(self.goal_mm[m]):.1f} |"
+                row += f" {_mean(self.goal_mm[m], 1)} |"
             rows.append(row)
         rows += ["", f"Adverbs obeyed by {self.verb} (largest error, % of the examples' range):", ""]
         rows.append("| adverb | " + " | ".join(self.obedience) + " |")
@@ -112,12 +112,18 @@ class Evaluation:
         ax1.set_ylabel("mean joint-position error (mm)")
         ax1.set_title(f"{self.verb}: leave-one-out")
         ax1.legend(fontsize=8)
-        ax2.bar(METHODS, [np.mean(self.adverb_pct[m]) for m in METHODS], color="C1")
+        ax2.bar(METHODS, [np.nan_to_num(np.nanmean(self.adverb_pct[m])) for m in METHODS], color="C1")
         ax2.set_ylabel("adverb error (% of range)")
         ax2.tick_params(axis="x", rotation=45)
         fig.tight_layout()
         fig.savefig(path, dpi=110)
         plt.close(fig)
+
+
+def _mean(values: np.ndarray, digits: int) -> str:
+    """The mean as text, or "n/a" where a method could not predict (too few examples left)."""
+    values = np.asarray(values, dtype=float)
+    return "n/a" if np.all(np.isnan(values)) else f"{np.nanmean(values):.{digits}f}"
 
 
 def _measured(verb: Verb) -> list[int]:
@@ -140,8 +146,8 @@ def _pose_positions(verb: Verb, control_points: np.ndarray) -> np.ndarray:
     return gpos[:, body]
 
 
-def _predict(method: str, verb: Verb, keep: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Control points and keytimes at ``target`` from the examples ``keep``."""
+def _predict(method: str, verb: Verb, keep: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """Control points and keytimes at ``target`` from the examples ``keep`` (None: the method cannot)."""
     pts = verb.points[keep]
     logk = np.log(np.diff(verb.keytimes_table[keep], axis=1))
     coef = verb.coefficients[keep]
@@ -154,6 +160,8 @@ def _predict(method: str, verb: Verb, keep: np.ndarray, target: np.ndarray) -> t
         w = 1.0 / np.maximum(np.linalg.norm(q - qt, axis=1), 1e-12) ** 2
         pred = w @ values / w.sum()
     elif method == "scipy-rbf":
+        if len(q) < q.shape[1] + 1:  # a degree-1 polynomial needs A + 1 points
+            return None
         pred = RBFInterpolator(q, values, kernel="thin_plate_spline", degree=1)(qt[None])[0]
     else:
         interp = AdverbInterpolator(pts, linear=np.array([not verb.examples[j].refine for j in keep]))
@@ -182,7 +190,13 @@ def evaluate(verb: Verb) -> Evaluation:
         keep = np.array([j for j in range(e) if j != i])
         truth = _pose_positions(verb, verb.coefficients[i])
         for m in METHODS:
-            cp, k = _predict(m, verb, keep, verb.points[i])
+            predicted = _predict(m, verb, keep, verb.points[i])
+            if predicted is None:
+                pose[m][i] = adverb[m][i] = np.nan
+                if goal is not None:
+                    goal[m][i] = np.nan
+                continue
+            cp, k = predicted
             pose[m][i] = 1000.0 * np.mean(np.linalg.norm(_pose_positions(verb, cp) - truth, axis=-1))
             if measured:
                 got = measure_motion(verb, cp, k)
@@ -232,6 +246,7 @@ def obedience(verb: Verb) -> dict[str, np.ndarray]:
     """Largest measured-minus-asked error per measured adverb, % of range, at each kind of point."""
     measured = _measured(verb)
     ranges = np.ptp(verb.points, axis=0)[measured]
+    ranges = np.where(ranges > 0, ranges, 1.0)
     out = {}
     for kind, pts in obedience_points(verb).items():
         errs = [

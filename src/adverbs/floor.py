@@ -49,6 +49,8 @@ class FlatFloor(Floor):
     """A horizontal floor at ``level`` metres."""
 
     def __init__(self, level: float = 0.0):
+        if not math.isfinite(level):
+            raise AdverbsError(f"floor level must be a finite height in metres, got {level}")
         self.level = float(level)
 
     def height(self, xz: np.ndarray) -> np.ndarray:
@@ -68,6 +70,8 @@ class SlopeFloor(Floor):
     """A plane through ``(0, level, 0)`` rising ``degrees`` towards the horizontal ``direction`` (default +Z)."""
 
     def __init__(self, degrees: float, direction: tuple[float, float] = (0.0, 1.0), level: float = 0.0):
+        if not math.isfinite(level):
+            raise AdverbsError(f"floor level must be a finite height in metres, got {level}")
         if not (math.isfinite(degrees) and -80.0 < degrees < 80.0):
             raise AdverbsError(f"slope must be between -80 and 80 degrees, got {degrees}")
         d = np.asarray(direction, dtype=float)
@@ -118,8 +122,13 @@ class HeightMapFloor(Floor):
                 missing = {"heights", "spacing"} - set(data.files)
                 if missing:
                     raise AdverbsError(f"{path}: height map needs arrays {', '.join(sorted(missing))}")
-                origin = tuple(data["origin"]) if "origin" in data.files else (0.0, 0.0)
-                return cls(data["heights"], float(data["spacing"]), origin, name=str(path))
+                origin = np.asarray(data["origin"], dtype=float) if "origin" in data.files else np.zeros(2)
+                spacing = np.asarray(data["spacing"], dtype=float)
+                if origin.shape != (2,) or not np.all(np.isfinite(origin)):
+                    raise AdverbsError(f"{path}: origin must be two finite numbers (x, z), got shape {origin.shape}")
+                if spacing.ndim != 0:
+                    raise AdverbsError(f"{path}: spacing must be one number (metres), got shape {spacing.shape}")
+                return cls(data["heights"], float(spacing), (float(origin[0]), float(origin[1])), name=str(path))
         except FileNotFoundError:
             raise AdverbsError(f"{path}: no such height map") from None
         except (OSError, ValueError) as e:

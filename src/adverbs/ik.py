@@ -49,6 +49,7 @@ class LegChains:
         The effector's offset in the end's frame (zeros when the effector is the end itself).
     above : tuple of int
         Joints from the root to the hips' common parent, root first (their FK gives the hips' frame).
+        The last of them (the pelvis) is what is lowered when a target is out of reach.
     hinge : (L, 3)
         The knee's bending axis in the hip's frame (flexion is positive about it).
     upper_offset, end_offset : (L, 3)
@@ -90,7 +91,9 @@ class LegChains:
         if len(parents) != 1:
             raise AdverbsError("the constrained chains must hang from one joint (the hips' parent)")
         parent = parents.pop()
-        above = tuple(skeleton.ancestors(parent)[::-1]) if parent >= 0 else ()
+        if parent < 0:
+            raise AdverbsError("the constrained chains must hang from a joint (a pelvis), not from the root itself")
+        above = tuple(skeleton.ancestors(parent)[::-1])
         upper_offset = skeleton.offsets[middle]
         end_offset = skeleton.offsets[ends]
         hinge = np.empty((len(ends), 3))
@@ -104,6 +107,16 @@ class LegChains:
         return cls(
             np.array(upper), np.array(middle), np.array(ends), above, hinge, upper_offset, end_offset, tip_offset
         )
+
+
+def _checked(rotations, translations, targets, damping) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Copies of the pose and the targets as float arrays; non-finite targets and λ ≤ 0 are refused."""
+    targets = np.asarray(targets, dtype=float)
+    if not np.all(np.isfinite(targets)):
+        raise AdverbsError("IK targets must be finite (got NaN or infinity)")
+    if not (np.isfinite(damping) and damping > 0):
+        raise AdverbsError(f"IK damping must be a positive number of metres, got {damping}")
+    return np.array(rotations, dtype=float), np.array(translations, dtype=float), targets
 
 
 @dataclass
@@ -144,15 +157,14 @@ def solve_reference(
     This is the readable NumPy version, vectorized over the leading axes; :func:`solve` computes the
     same with a compiled loop (numba), which is what run time uses.
     """
-    rotations = np.array(rotations, dtype=float)
-    translations = np.array(translations, dtype=float)
-    targets = np.asarray(targets, dtype=float)
+    rotations, translations, targets = _checked(rotations, translations, targets, damping)
     lead = rotations.shape[:-2]
 
     # The hips' parent frame, by FK along the few joints above them.
     g = np.broadcast_to(np.eye(3), lead + (3, 3))
     p = np.zeros(lead + (3,))
     for j in chains.above:
+        outer = g  # the frame the pelvis's translation is given in, at the last step
         p = p + (g @ translations[..., j, :, None])[..., 0]
         g = g @ quat.to_matrix(rotations[..., j, :])
     g_parent = g[..., None, :, :]  # (..., 1, 3, 3)
@@ -173,7 +185,8 @@ def solve_reference(
     need = np.where(feasible, -delta[..., 1] - below, 0.0)  # how far the hip must come down
     drop = np.minimum(np.maximum(np.maximum(need.max(axis=-1), 0.0), min_drop), MAX_DROP * reach.min())
     if np.any(drop > 0):
-        translations[..., 0, 1] -= drop
+        down = np.swapaxes(outer, -1, -2)[..., :, 1]  # world up in the pelvis's parent frame
+        translations[..., chains.above[-1], :] -= drop[..., None] * down
         hip = hip - drop[..., None, None] * np.array([0.0, 1.0, 0.0])
 
     g_upper = g_parent @ l_upper
@@ -242,9 +255,7 @@ def solve(
 
     One creature's two feet take a few microseconds instead of a millisecond of NumPy calls.
     """
-    rotations = np.array(rotations, dtype=float)
-    translations = np.array(translations, dtype=float)
-    targets = np.asarray(targets, dtype=float)
+    rotations, translations, targets = _checked(rotations, translations, targets, damping)
     lead = rotations.shape[:-2]
     j, n_legs = rotations.shape[-2], len(chains.end)
     rot = np.ascontiguousarray(rotations.reshape(-1, j, 4))

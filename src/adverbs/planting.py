@@ -83,7 +83,7 @@ def plant_feet_many(
     held, trans, spans, releases, starts = [], [], [], [], [0]
     for clip, keytimes in motions:
         f, o = clip.num_frames, starts[-1]
-        gpos, _ = clip.forward_kinematics()
+        gpos, grot = clip.forward_kinematics()
         phases_c = phase_frames(verb, keytimes, clip)
         time = np.arange(f) / clip.fps
         target = np.empty((f, len(tips), 3))  # where each effector goes: held in its phases, on the floor
@@ -97,8 +97,15 @@ def plant_feet_many(
                     releases.append((i, o + b, o + until, s * s * (3.0 - 2.0 * s)))
             target[:, i, [0, 2]] = xz
             target[:, i, 1] = floor.height(xz) + (gpos[:, tip, 1] - verb.floor)
+        # The pelvis rides the floor under it: raised along world up, in its parent's frame.
         t = clip.translations.copy()
-        t[:, 0, 1] += floor.height(gpos[:, verb.encoding.body_root][:, [0, 2]]) - verb.floor
+        lift = chains.above[-1]
+        rise = floor.height(gpos[:, verb.encoding.body_root][:, [0, 2]]) - verb.floor
+        up = np.broadcast_to([0.0, 1.0, 0.0], (f, 3))
+        parent = verb.skeleton.parents[lift]
+        if parent >= 0:
+            up = quat.rotate(quat.inv(grot[:, parent]), up)
+        t[:, lift] += rise[:, None] * up
         held.append(target)
         trans.append(t)
         spans.append(phases_c)

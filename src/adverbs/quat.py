@@ -135,20 +135,22 @@ def to_euler(order: str, q: np.ndarray) -> np.ndarray:
     return e.reshape(shape + (3,))
 
 
-def unwrap_euler(order: str, angles: np.ndarray, axis: int = 0) -> np.ndarray:
+def unwrap_euler(order: str, angles: np.ndarray, axis: int = 0, near: np.ndarray | None = None) -> np.ndarray:
     """Make Euler angle sequences ``(..., 3)`` continuous along ``axis``.
 
     Every rotation has two Tait–Bryan solutions, ``(a, b, c)`` and ``(a + π, π − b, c + π)``, each
     up to multiples of 2π. At each sample the one nearest the previous sample is chosen, so no
-    channel jumps by more than π between samples unless the motion itself does. The loop runs
-    over samples, vectorized over every other axis.
+    channel jumps by more than π between samples unless the motion itself does; the first sample
+    is the one nearest ``near`` (angles broadcasting against one sample), if given, so that several
+    sequences land on the same branch. The loop runs over samples, vectorized over every other axis.
     """
     del order  # the equivalence holds for every Tait–Bryan order
     a = np.moveaxis(np.asarray(angles, dtype=float), axis, 0).copy()
     two_pi = 2.0 * np.pi
     alt = np.stack([a[..., 0] + np.pi, np.pi - a[..., 1], a[..., 2] + np.pi], axis=-1)
-    for i in range(1, len(a)):
-        prev = a[i - 1]
+    start = 0 if near is not None else 1
+    for i in range(start, len(a)):
+        prev = a[i - 1] if i > 0 else np.broadcast_to(np.asarray(near, dtype=float), a[0].shape)
         best = None
         best_cost = None
         for cand in (a[i], alt[i]):

@@ -88,10 +88,18 @@ def load_spec(path: str | Path) -> dict[str, Any]:
         raw = tomllib.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise SpecError(path, "no such spec file") from None
+    except UnicodeDecodeError:
+        raise SpecError(path, "not a text file (UTF-8)") from None
+    except OSError as e:
+        raise SpecError(path, f"cannot read: {e.strerror}") from None
     except tomllib.TOMLDecodeError as e:
         raise SpecError(path, f"not valid TOML: {e}") from None
     _unknown(path, raw, _TOP, None)
-    name = raw.get("name", path.stem)
+    name = str(raw.get("name", path.stem))
+    if raw.get("cut") is not None and not isinstance(raw["cut"], dict):
+        raise SpecError(path, 'must be a table such as { foot = "left", steps = 2 }', field="cut")
+    if raw.get("skeleton") is not None and not isinstance(raw["skeleton"], str):
+        raise SpecError(path, "must be a path (a string)", field="skeleton")
     encoding = raw.get("encoding", "logquat")
     if encoding not in KINDS:
         raise SpecError(path, f"unknown encoding {encoding!r}; use one of {', '.join(KINDS)}", field="encoding")
@@ -138,6 +146,10 @@ def load_spec(path: str | Path) -> dict[str, Any]:
         _unknown(path, ex, _EXAMPLE, ex["name"])
         if "file" not in ex:
             raise SpecError(path, "missing", ex["name"], "file")
+        if not isinstance(ex["file"], str):
+            raise SpecError(path, f"must be a path (a string), got {ex['file']!r}", ex["name"], "file")
+        if "cut" in ex and not isinstance(ex["cut"], dict):
+            raise SpecError(path, 'must be a table such as { foot = "left", steps = 2 }', ex["name"], "cut")
         if "cut" in ex and "frames" in ex:
             raise SpecError(path, "give either 'cut' or 'frames', not both", ex["name"], "frames")
     floor = raw.get("floor", 0.0)
@@ -296,6 +308,8 @@ def _cut(path: Path, ex: dict, clip: Clip, spec: dict) -> tuple[Clip, np.ndarray
             part = clip.frames(*frames)
         except AdverbsError as e:
             raise SpecError(path, str(e), name, "frames") from None
+        if part.num_frames < 2:
+            raise SpecError(path, f"{frames} is a single frame; an example needs at least two", name, "frames")
         return (part, *_given_keytimes(path, ex, part), f"frames {frames[0]}:{frames[1]}")
     cut = dict(spec["cut"] or {})
     cut.update(ex.get("cut", {}))
@@ -381,6 +395,14 @@ def _given_keytimes(path: Path, ex: dict, part: Clip) -> tuple[np.ndarray, list[
     k = np.array(given, dtype=float)
     if len(k) < 2 or not np.all(np.isfinite(k)):
         raise SpecError(path, "needs at least two finite keytimes", name, "keytimes")
+    if k[0] != 0 or abs(k[-1] - part.duration) > 0.5 / part.fps:
+        raise SpecError(
+            path,
+            f"must start at 0 and end at the part's duration {part.duration:.4f} s, got {k[0]} .. {k[-1]}",
+            name,
+            "keytimes",
+        )
+    k[-1] = part.duration  # within half a frame: the part's end, exactly
     if np.any(np.diff(k) <= 0):
         i = int(np.argmax(np.diff(k) <= 0))
         raise SpecError(
@@ -389,14 +411,6 @@ def _given_keytimes(path: Path, ex: dict, part: Clip) -> tuple[np.ndarray, list[
             name,
             "keytimes",
         )
-    if k[0] != 0 or abs(k[-1] - part.duration) > 0.5 / part.fps:
-        raise SpecError(
-            path,
-            f"must start at 0 and end at the part's duration {part.duration:.4f} s, got {k[0]} .. {k[-1]}",
-            name,
-            "keytimes",
-        )
-    k[-1] = part.duration
     return k, [f"keytime {i}" for i in range(len(k))]
 
 

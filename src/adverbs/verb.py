@@ -481,7 +481,7 @@ class Verb:
         try:
             with zipfile.ZipFile(path) as z:
                 meta = json.loads(z.read("verb.json"))
-                if meta.get("format") != FORMAT:
+                if not isinstance(meta, dict) or meta.get("format") != FORMAT:
                     raise AdverbsError(f"{path}: not an adverbs verb file")
                 if meta.get("version") != VERSION:
                     raise AdverbsError(
@@ -525,7 +525,8 @@ class Verb:
             )
             adverbs = [Adverb(a["name"], a.get("unit", ""), a.get("measure")) for a in meta["adverbs"]]
             examples = [
-                ExampleRecord(x["name"], x["source"], x["part"], float(x["fit_error"])) for x in meta["examples"]
+                ExampleRecord(x["name"], x["source"], x["part"], float(x["fit_error"]), bool(x.get("refine", False)))
+                for x in meta["examples"]
             ]
             return cls(
                 meta["name"],
@@ -541,9 +542,9 @@ class Verb:
                 [Constraint(c["effector"], int(c["open"]), int(c["close"])) for c in meta["constraints"]],
                 float(meta["floor"]),
             )
-        except (KeyError, TypeError, ValueError) as e:
-            if isinstance(e, AdverbsError):
-                raise
+        except AdverbsError as e:
+            raise AdverbsError(f"{path}: {e}") from None
+        except (KeyError, TypeError, ValueError, AttributeError, IndexError) as e:
             raise AdverbsError(f"{path}: damaged verb file (missing or malformed {e})") from None
 
 
