@@ -35,6 +35,7 @@ def test_phases_wrap_around_cycles():
     assert phases(Constraint("x", 0, 1), k, 2.0, True) == [(0.0, 0.5), (1.0, 1.5)]
     assert phases(Constraint("x", 1, 0), k, 2.0, True) == [(0.5, 1.0), (1.5, 2.0)]
     assert phases(Constraint("x", 0, 2), k, 2.0, False) == [(0.0, 1.0)]
+    assert phases(Constraint("x", 0, 2), k, 2.0, True) == [(0.0, 2.0)]  # a foot down all cycle: held throughout
 
 
 def test_drift_measure():

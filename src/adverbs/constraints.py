@@ -98,18 +98,22 @@ def phases(constraint: Constraint, keytimes: np.ndarray, duration: float, cyclic
     """Clock intervals ``[open, close)`` of ``constraint`` over ``duration`` seconds of a verb instance.
 
     ``keytimes (N,)`` are the verb's at the current adverbs; cyclic verbs repeat every ``K_N``.
-    A constraint already open at time 0 (wrapping in from a previous cycle) starts at 0.
+    A constraint already open at time 0 (wrapping in from a previous cycle) starts at 0; one that
+    closes where it opens again (a foot down all cycle) makes a single phase.
     """
     k0, k1 = float(keytimes[constraint.open]), float(keytimes[constraint.close])
     if not cyclic:
         return [(k0, min(k1, duration))] if k0 < duration else []
     cycle = float(keytimes[-1])
-    length = (k1 - k0) % cycle
+    length = (k1 - k0) % cycle or cycle  # open and close at the same event of the cycle: held throughout
     out = []
     start = k0 - cycle
     while start < duration:
         a, b = max(start, 0.0), min(start + length, duration)
         if b > a:
-            out.append((a, b))
+            if out and a <= out[-1][1] + 1e-9:  # held through the cycle: one long phase, never let go
+                out[-1] = (out[-1][0], b)
+            else:
+                out.append((a, b))
         start += cycle
     return out
