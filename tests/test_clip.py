@@ -84,6 +84,17 @@ def test_resample_up_and_back_is_identity(cmu_walk):
     assert np.allclose(mid, 0.5 * (cmu_walk.root_positions[:-1] + cmu_walk.root_positions[1:]))
 
 
+def test_resample_matches_scipy_slerp(cmu_walk):
+    from scipy.spatial.transform import Rotation, Slerp
+
+    down = cmu_walk.resample(24)
+    times = np.arange(cmu_walk.num_frames) / cmu_walk.fps
+    for j in (0, 3, 12):
+        expected = Slerp(times, Rotation.from_quat(cmu_walk.rotations[:, j]))(np.arange(down.num_frames) / 24)
+        got = Rotation.from_quat(down.rotations[:, j])
+        assert np.allclose((expected.inv() * got).magnitude(), 0.0, atol=1e-9)
+
+
 def test_resample_down_keeps_duration_and_bones(bandai_walk):
     down = bandai_walk.resample(24)
     assert down.fps == 24

@@ -61,7 +61,7 @@ def test_cut_starts_at_a_heel_strike_of_the_requested_foot(path, foot):
         cut, keys = cut_steps(clip, foot, k=k, n=2, contacts=contacts)
         start = int(contacts.strikes(foot)[k])
         assert np.array_equal(cut.rotations[0], clip.rotations[start])
-        # The cut clip, seen on its own, has that foot land on its first frame: planted now, in the air just before.
+        # The cut starts where that foot lands: planted at the first frame, in the air the frame before.
         assert contacts.planted[start, which] and not contacts.planted[start - 1, which]
         assert keys[0] == 0 and keys[-1] == pytest.approx(cut.duration) and np.all(np.diff(keys) > 0)
         assert len(keys) == 3

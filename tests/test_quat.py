@@ -42,6 +42,10 @@ def test_log_exp_and_slerp():
     da = np.abs(np.sum(half * a, -1))
     db = np.abs(np.sum(half * b, -1))
     assert np.allclose(da, db)  # halfway: equally far from both ends
+    # A quarter of the way: a quarter of the angle (where normalised lerp would not be).
+    total = 2 * np.arccos(np.clip(np.abs(np.sum(a * b, -1)), 0, 1))
+    quarter = quat.slerp(a, b, np.full(100, 0.25))
+    assert np.allclose(2 * np.arccos(np.clip(np.abs(np.sum(a * quarter, -1)), 0, 1)), 0.25 * total, atol=1e-9)
 
 
 def test_tilt_turns_up_onto_the_normal():

@@ -156,9 +156,12 @@ def test_unknown_fields_and_bad_values(tmp_path):
     fails(path, None, "encoding", "unknown encoding")
 
 
-def test_the_shipped_specs_parse():
-    for path in sorted(SPECS.glob("*.toml")):
-        assert load_spec(path)["examples"]
+def test_the_shipped_specs_parse_and_name_shipped_files():
+    paths = sorted(SPECS.glob("*.toml"))
+    assert len(paths) == 3
+    for path in paths:
+        spec = load_spec(path)
+        assert all((path.parent / ex["file"]).exists() for ex in spec["examples"]), path
 
 
 def test_constraint_mistakes(tmp_path):
@@ -202,3 +205,36 @@ def test_fields_of_the_wrong_type(tmp_path):
     binary = tmp_path / "binary.toml"
     binary.write_bytes(b"\xff\xfe\x00name")
     fails(binary, None, None, "not a text file")
+
+
+def test_a_cycle_must_end_where_it_starts(tmp_path):
+    head = HEAD.replace('cut = { foot = "left", steps = 2 }', 'cut = { foot = "left", steps = 3 }')
+    path = spec(
+        tmp_path, example("a", WALK, "adverbs = { mood = 0 }"), example("b", FAST, "adverbs = { mood = 1 }"), head=head
+    )
+    fails(path, "a", "cut.steps", "even number of steps")
+    head = HEAD.replace(
+        'name = "test-walk"', 'name = "test-walk"\nconstraints = [{ effector = "ltoes", open = 2, close = 0 }]'
+    )
+    path = spec(
+        tmp_path, example("a", WALK, "adverbs = { mood = 0 }"), example("b", FAST, "adverbs = { mood = 1 }"), head=head
+    )
+    fails(path, None, "constraints", "open at 0")
+
+
+def test_examples_at_different_frame_rates(tmp_path):
+    from adverbs import read_bvh, write_bvh
+
+    fast60 = tmp_path / "fast60.bvh"
+    write_bvh(read_bvh(FAST).resample(60), fast60)
+    path = spec(tmp_path, example("a", WALK, "adverbs = { mood = 0 }"), example("b", fast60, "adverbs = { mood = 1 }"))
+    fails(path, "b", "file", "runs at 60 fps")
+    head = HEAD.replace("num_cp = 10", "num_cp = 10\nfps = 30")
+    path = spec(
+        tmp_path,
+        example("a", WALK, "adverbs = { mood = 0 }"),
+        example("b", fast60, "adverbs = { mood = 1 }"),
+        head=head,
+    )
+    verb = build_from_spec(path)
+    assert verb.fps == 30 and verb.examples[1].fit_error < 0.05

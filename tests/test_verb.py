@@ -77,7 +77,7 @@ def test_moving_a_refinement_far_away_leaves_the_rest(verbs):
     """Compact support: a refinement example moved far away changes poses only near its old place."""
     verb, _ = verbs["cmu_walk"]
     ip = verb.interpolator
-    checked = 0
+    checked, changes = 0, []
     for j in range(len(verb.examples)):
         records = list(verb.examples)
         records[j] = dataclasses.replace(records[j], refine=True)
@@ -114,9 +114,11 @@ def test_moving_a_refinement_far_away_leaves_the_rest(verbs):
             p = verb.points[i] + 0.3 * ip.alpha[i] * ip.scale
             a = _pose_positions(before, before.control_points(p))
             b = _pose_positions(after, after.control_points(p))
-            assert np.linalg.norm(a - b, axis=-1).max() <= 0.005  # under the B-spline fit error
+            change = np.linalg.norm(a - b, axis=-1).max()
+            assert change <= 0.005  # under the B-spline fit error: only the radial solve couples them
+            changes.append(change)
             checked += 1
-    assert checked >= 10
+    assert checked >= 10 and np.median(changes) <= 0.001
 
 
 @pytest.mark.parametrize("name", VERB_SPECS)
@@ -289,3 +291,20 @@ def test_evaluate_with_too_few_examples_for_scipy(verbs):
                  verb.constraints, verb.floor)  # fmt: skip
     table = evaluate(small).table()
     assert "| scipy-rbf | n/a | n/a |" in table and "| ours |" in table
+
+
+def test_synthesis_arguments_are_checked(verbs):
+    walk, _ = verbs["cmu_walk"]
+    reach, _ = verbs["bandai_reach"]
+    p = walk.points[0]
+    with pytest.raises(AdverbsError, match="one-shot"):
+        reach.synthesize(reach.points[0], cycles=3)
+    with pytest.raises(AdverbsError, match="between 2 and"):
+        walk.synthesize(p, duration=0.001)
+    with pytest.raises(AdverbsError, match="between 2 and"):
+        walk.synthesize(p, duration=1e12)
+    with pytest.raises(AdverbsError, match="clock time must be a finite"):
+        walk.pose(p, float("nan"))
+    with pytest.raises(AdverbsError, match="generic times must be finite"):
+        walk.dofs(p[None], [float("inf")])
+    assert np.all(np.isfinite(walk.pose(p, 0.25)))  # the verb is fine after all of that

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import time
 from pathlib import Path
@@ -263,6 +264,9 @@ def _run(args: argparse.Namespace) -> None:
         verb = Verb.load(args.verb)
         p = verb.point(dict(args.adverb))
         floor = parse_floor(args.floor) if args.floor is not None else None
+        if floor is not None and (args.no_ik or not verb.constraints):
+            why = "--no-ik leaves the feet where the verb puts them" if args.no_ik else "the verb has no constraints"
+            raise AdverbsError(f"--floor places the feet on the ground, but {why}")
         clip, k = verb.synthesize(p, duration=args.duration, cycles=args.cycles, fps=args.fps)
         feet = "feet not planted (--no-ik)"
         if verb.constraints and not args.no_ik:
@@ -305,6 +309,9 @@ def main(argv: list[str] | None = None) -> int:
     except AdverbsError as e:
         print(f"adverbs: error: {e}", file=sys.stderr)
         return 1
+    except BrokenPipeError:  # the reader went away (`adverbs describe VERB | head`): nothing more to say
+        sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - keeps the interpreter's final flush quiet
+        return 0
     except OSError as e:  # an output that cannot be written: a directory, no permission, a full disk
         print(f"adverbs: error: {e.filename or ''}: {e.strerror}", file=sys.stderr)
         return 1

@@ -46,12 +46,12 @@ class Clip:
         j = self.skeleton.num_joints
         f = self.rotations.shape[0] if self.rotations.ndim == 3 else -1
         if self.rotations.shape != (f, j, 4) or self.translations.shape != (f, j, 3):
-            raise ValueError(
+            raise AdverbsError(
                 f"clip {self.name!r}: rotations {self.rotations.shape} and translations "
                 f"{self.translations.shape} must be (F, {j}, 4) and (F, {j}, 3)"
             )
         if not (np.isfinite(self.fps) and self.fps > 0):
-            raise ValueError(f"clip {self.name!r}: fps must be positive, got {self.fps}")
+            raise AdverbsError(f"clip {self.name!r}: fps must be positive, got {self.fps}")
 
     @property
     def num_frames(self) -> int:

@@ -45,6 +45,10 @@ def check_constraint(c: Constraint, skeleton: Skeleton, num_keytimes: int, cycli
         k = getattr(c, field)
         if isinstance(k, bool) or not isinstance(k, int) or not 0 <= k < num_keytimes:
             raise AdverbsError(f"constraint on {c.effector!r}: '{field}' must be a keytime index 0..{num_keytimes - 1}")
+    if cyclic and c.open == num_keytimes - 1:
+        raise AdverbsError(
+            f"constraint on {c.effector!r}: in a cycle the last keytime is the first one again; open at 0"
+        )
     if c.open == c.close or (c.close < c.open and not cyclic):
         raise AdverbsError(
             f"constraint on {c.effector!r}: it must close after it opens (open {c.open}, close {c.close})"

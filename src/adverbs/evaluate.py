@@ -164,7 +164,10 @@ def _predict(method: str, verb: Verb, keep: np.ndarray, target: np.ndarray) -> t
             return None
         pred = RBFInterpolator(q, values, kernel="thin_plate_spline", degree=1)(qt[None])[0]
     else:
-        interp = AdverbInterpolator(pts, linear=np.array([not verb.examples[j].refine for j in keep]))
+        linear = np.array([not verb.examples[j].refine for j in keep])
+        if len(keep) < 2 or not linear.any():  # nothing left to interpolate between
+            return None
+        interp = AdverbInterpolator(pts, linear=linear)
         if method == "linear":
             lin = np.concatenate([[1.0], (target - interp.centre) / interp.scale])
             pred = lin @ (interp._lin_pinv @ values)

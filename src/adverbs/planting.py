@@ -91,9 +91,12 @@ def plant_feet_many(
             xz = gpos[:, tip][:, [0, 2]].copy()
             for n, (a, b) in enumerate(frames):
                 xz[a:b] = xz[a]
-                until = min(frames[n + 1][0] if n + 1 < len(frames) else f, b + int(round(release * clip.fps)))
-                if until > b:  # released over the swing, until the next landing
-                    s = (time[b:until] - time[b - 1]) / (time[until - 1] - time[b - 1] + 1.0 / clip.fps)
+                # Released over the swing, until the next landing (or ``release`` seconds): the weights
+                # follow that whole span even where the clip ends first, so the last frames do not jump.
+                span = min(frames[n + 1][0] if n + 1 < len(frames) else b + release * clip.fps, b + release * clip.fps)
+                until = min(int(np.ceil(span)), f)
+                if until > b:
+                    s = (time[b:until] - time[b - 1]) / ((span - (b - 1)) / clip.fps)
                     releases.append((i, o + b, o + until, s * s * (3.0 - 2.0 * s)))
             target[:, i, [0, 2]] = xz
             target[:, i, 1] = floor.height(xz) + (gpos[:, tip, 1] - verb.floor)

@@ -54,8 +54,10 @@ class AdverbInterpolator:
         Units of each axis for distances; default: the range on that axis of the examples in ``linear``.
     linear : (E,) bool, optional
         Which examples the linear part is fitted to (default all). The others are *refinements*: they
-        only enter the radial part, so they change the verb near themselves and nowhere else — moving
-        one, even far away, leaves every point outside its old and new neighbourhoods exactly as it was.
+        only enter the radial part, so moving one leaves the hyperplane alone and changes the verb
+        mostly near its old and new places. Elsewhere it changes only through the radial system that
+        couples overlapping supports — not at all for examples whose supports never meet it, even
+        indirectly.
     """
 
     def __init__(

@@ -7,6 +7,7 @@ num_cp = 12                   # B-spline control points per DOF (NumCP)
 cyclic = true                 # a cycle (walk) or a one-shot motion (reach)
 skeleton = "data/x.bvh"       # optional: every example must be on this skeleton
 cut = { foot = "left", steps = 2 }   # default part of each file: one cycle from a left heel strike
+fps = 30                      # optional: resample every example to this rate (needed when files differ)
 
 [[adverbs]]
 name = "turn"
@@ -62,6 +63,7 @@ _TOP = {
     "description",
     "floor",
     "constraints",
+    "fps",
 }
 _ADVERB = {"name", "unit", "measure", "description"}
 _EXAMPLE = {"name", "file", "cut", "frames", "keytimes", "mirror", "adverbs", "refine", "description"}
@@ -155,6 +157,9 @@ def load_spec(path: str | Path) -> dict[str, Any]:
     floor = raw.get("floor", 0.0)
     if isinstance(floor, bool) or not isinstance(floor, int | float) or not math.isfinite(floor):
         raise SpecError(path, f"must be a finite height in metres, got {floor!r}", field="floor")
+    fps = raw.get("fps")
+    if fps is not None and (isinstance(fps, bool) or not isinstance(fps, int | float) or not 0 < fps < 10000):
+        raise SpecError(path, f"must be a frame rate in frames per second, got {fps!r}", field="fps")
     constraints = raw.get("constraints", "auto")
     if constraints != "auto":
         if not isinstance(constraints, list):
@@ -166,6 +171,7 @@ def load_spec(path: str | Path) -> dict[str, Any]:
         "path": path,
         "name": name,
         "floor": float(floor),
+        "fps": None if fps is None else float(fps),
         "constraints": constraints,
         "encoding": encoding,
         "num_cp": num_cp,
@@ -205,6 +211,16 @@ def examples_from_spec(spec: dict[str, Any]) -> tuple[list[Example], list[Adverb
             clip = read_bvh(file)
         except AdverbsError as e:
             raise SpecError(path, str(e), name, "file") from None
+        if spec["fps"] is not None and clip.fps != spec["fps"]:
+            clip = clip.resample(spec["fps"])
+        elif pending and clip.fps != pending[0][1].fps:
+            raise SpecError(
+                path,
+                f"{file.name} runs at {clip.fps:g} fps and example {pending[0][0]['name']!r} at "
+                f"{pending[0][1].fps:g}: set fps = ... at the top of the spec to resample every example",
+                name,
+                "file",
+            )
         if reference is not None and not clip.skeleton.same_structure(reference):
             raise SpecError(path, f"{file.name} is on a different skeleton from {spec['skeleton']}", name, "file")
         if pending:
@@ -226,6 +242,15 @@ def examples_from_spec(spec: dict[str, Any]) -> tuple[list[Example], list[Adverb
         pending.append((ex, clip, part, keytimes, desc, names))
 
     num_keytimes = len(pending[0][3])
+    first_names = pending[0][5]
+    if spec["cyclic"] and first_names[0] != first_names[-1] and not first_names[0].startswith("keytime"):
+        raise SpecError(
+            path,
+            f"a cycle must end on the event it starts with, but its keytimes run from '{first_names[0]}' to "
+            f"'{first_names[-1]}': use an even number of steps",
+            pending[0][0]["name"],
+            "cut.steps",
+        )
     for ex, _, _, keytimes, _, names in pending:
         if len(keytimes) != num_keytimes:
             raise SpecError(

@@ -21,6 +21,7 @@ import io
 import json
 import os
 import tempfile
+import math
 import zipfile
 from bisect import bisect_right
 from collections.abc import Sequence
@@ -40,6 +41,7 @@ from .rbf import AdverbInterpolator
 from .skeleton import Skeleton
 
 FORMAT = "adverbs-verb"  # version 2 added keytime names, constraints and the floor
+MAX_FRAMES = 1_000_000  # per synthesize call: about an hour at 240 fps
 _CHUNK = 2048  # queries per block in batched evaluation
 SEAM_BLEND = 0.25  # fraction of a cycle over which the seam between cycles is blended
 VERSION = 2
@@ -290,6 +292,8 @@ class Verb:
             raise AdverbsError(f"verb {self.name!r} takes {len(self.adverbs)} adverbs, got points of shape {p.shape}")
         p = p.reshape(-1, len(self.adverbs))
         t = np.asarray(t, dtype=float).reshape(-1)
+        if not np.all(np.isfinite(t)):
+            raise AdverbsError("generic times must be finite numbers")
         if len(p) != len(t):
             raise AdverbsError(f"dofs: {len(p)} adverb points but {len(t)} times")
         out = np.empty((len(t), self.encoding.num_dofs))
@@ -349,6 +353,8 @@ class Verb:
         n = len(k)
         end = k[-1]
         clock = float(clock)
+        if not math.isfinite(clock):
+            raise AdverbsError(f"clock time must be a finite number of seconds, got {clock}")
         clock = clock % end if self.cyclic else min(max(clock, 0.0), end)
         m = min(bisect_right(k, clock) - 1, n - 2)
         t = (m + (clock - k[m]) / (k[m + 1] - k[m])) / (n - 1)
@@ -394,11 +400,19 @@ class Verb:
         fps = self.fps if fps is None else float(fps)
         if not (np.isfinite(fps) and fps > 0):
             raise AdverbsError(f"fps must be a positive number, got {fps}")
+        if cycles is not None and not self.cyclic and float(cycles) != 1.0:
+            raise AdverbsError(
+                f"verb {self.name!r} is a one-shot motion: it plays once (give a duration instead of cycles)"
+            )
         if duration is None:
             duration = k[-1] * (1.0 if cycles is None else float(cycles))
         if not (np.isfinite(duration) and duration > 0):
             raise AdverbsError(f"duration must be a positive number of seconds, got {duration}")
         frames = int(round(duration * fps)) + 1
+        if not 2 <= frames <= MAX_FRAMES:
+            raise AdverbsError(
+                f"{duration:g} s at {fps:g} fps is {frames} frames; synthesize between 2 and {MAX_FRAMES:,} at a time"
+            )
         clock = np.arange(frames) / fps
         if not self.cyclic:
             dofs = bspline.evaluate(control_points, timewarp.generic_time(np.minimum(clock, k[-1]), k))
