@@ -268,3 +268,47 @@ def test_frame_rates():
     assert parse_bvh(text.replace("Frame Time:\t0.0333333", "Frame Time: 0.0416667")).fps == 24.0
     with pytest.raises(BVHError, match="Frame Time"):
         parse_bvh(text.replace("Frame Time:\t0.0333333", "Frame Time: 1e-320"))
+
+
+@pytest.mark.parametrize("path", ONE_PER_SOURCE, ids=ids(ONE_PER_SOURCE))
+def test_mutated_files_read_or_raise_bvh_error(path):
+    """Seeded mutations of real files (tokens replaced, lines dropped or repeated): a clip or a BVHError, nothing else."""
+    lines = path.read_text().splitlines()
+    motion = next(i for i, line in enumerate(lines) if line.strip() == "MOTION")
+    lines = lines[: motion + 3 + 20]  # the whole hierarchy and 20 frames keep it quick
+    junk = [
+        "}",
+        "{",
+        "JOINT",
+        "End",
+        "Site",
+        "OFFSET",
+        "CHANNELS",
+        "7",
+        "-1",
+        "nan",
+        "1e999",
+        "x",
+        "",
+        "MOTION",
+        "Frames:",
+    ]
+    rng = np.random.default_rng(12)
+    for _ in range(150):
+        mutated = list(lines)
+        for _ in range(rng.integers(1, 4)):
+            i = int(rng.integers(len(mutated)))
+            kind = rng.integers(3)
+            if kind == 0 and mutated[i].split():
+                words = mutated[i].split()
+                words[int(rng.integers(len(words)))] = str(rng.choice(junk))
+                mutated[i] = " ".join(words)
+            elif kind == 1:
+                del mutated[i]
+            else:
+                mutated.insert(i, mutated[i])
+        try:
+            clip = parse_bvh("\n".join(mutated), source=path)
+        except BVHError:
+            continue
+        assert np.all(np.isfinite(clip.rotations)) and np.all(np.isfinite(clip.translations))
