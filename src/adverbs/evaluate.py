@@ -32,7 +32,7 @@ from scipy.interpolate import RBFInterpolator
 
 from . import bspline
 from .fk import forward_kinematics
-from .measures import measure
+from .measures import measure_all
 from .planting import foot_drift, plant_feet
 from .rbf import AdverbInterpolator
 from .verb import Verb
@@ -133,7 +133,7 @@ def _measured(verb: Verb) -> list[int]:
 def measure_motion(verb: Verb, control_points: np.ndarray, keytimes: np.ndarray) -> np.ndarray:
     """Measured adverb values ``(M,)`` of one cycle rendered from control points and keytimes."""
     clip, k = verb.render(control_points, keytimes, fps=max(verb.fps, 60.0))
-    return np.array([measure(clip, k, verb.adverbs[i].measure) for i in _measured(verb)])
+    return measure_all(clip, k, [verb.adverbs[i].measure for i in _measured(verb)])
 
 
 def _pose_positions(verb: Verb, control_points: np.ndarray) -> np.ndarray:

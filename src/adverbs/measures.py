@@ -51,6 +51,12 @@ def check_measure(spec: Mapping, skeleton_names: tuple[str, ...], num_keytimes: 
     return out
 
 
+def measure_all(clip: Clip, keytimes: np.ndarray, specs: list[Mapping]) -> np.ndarray:
+    """Several measures of one clip ``(M,)``, its forward kinematics done once."""
+    track = body_track(clip)
+    return np.array([measure(clip, keytimes, s, track) for s in specs])
+
+
 def body_track(clip: Clip) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Body-root positions ``(F, 3)``, unwrapped heading ``(F,)``, and global positions/rotations."""
     skel = clip.skeleton
@@ -60,9 +66,12 @@ def body_track(clip: Clip) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarr
     return gpos[:, root], h, gpos, grot
 
 
-def measure(clip: Clip, keytimes: np.ndarray, spec: Mapping) -> float:
-    """The value of measure ``spec`` on ``clip`` with its ``keytimes (N,)`` in seconds."""
-    root, h, gpos, _ = body_track(clip)
+def measure(clip: Clip, keytimes: np.ndarray, spec: Mapping, track: tuple | None = None) -> float:
+    """The value of measure ``spec`` on ``clip`` with its ``keytimes (N,)`` in seconds.
+
+    ``track`` is :func:`body_track` of the clip when the caller already has it (several measures).
+    """
+    root, h, gpos, _ = body_track(clip) if track is None else track
     duration = clip.duration
     kind = spec["kind"]
     if kind == "speed":

@@ -48,7 +48,7 @@ from .constraints import Constraint
 from .contacts import find_contacts, step_events, step_range
 from .encoding import KINDS
 from .errors import AdverbsError
-from .measures import MEASURES, check_measure, default_unit, measure
+from .measures import MEASURES, check_measure, default_unit, measure, measure_all
 from .verb import Adverb, Example, Verb
 
 _TOP = {
@@ -288,6 +288,7 @@ def examples_from_spec(spec: dict[str, Any]) -> tuple[list[Example], list[Adverb
         if unknown:
             raise SpecError(path, "the verb has no such adverb", ex["name"], f"adverbs.{unknown[0]}")
         point = []
+        measured = iter(measure_all(part, keytimes, [a.measure for a in adverbs if a.measure is not None]))
         for a in adverbs:
             field = f"adverbs.{a.name}"
             if a.measure is not None:
@@ -295,7 +296,7 @@ def examples_from_spec(spec: dict[str, Any]) -> tuple[list[Example], list[Adverb
                     raise SpecError(
                         path, "this adverb is measured from the motion; do not also give it", ex["name"], field
                     )
-                point.append(measure(part, keytimes, a.measure))
+                point.append(float(next(measured)))
                 continue
             if a.name not in given:
                 raise SpecError(

@@ -384,7 +384,9 @@ class Verb:
         ``duration`` in seconds overrides it. The root starts at ``start = (x, z, heading)``.
         """
         p = self.point(p)
-        return self.render(self.control_points(p), self.keytimes(p), duration, cycles, fps, start)
+        w = self.weights(p)
+        control = np.tensordot(w, self.coefficients, axes=(-1, 0))
+        return self.render(control, self.keytimes(p, w), duration, cycles, fps, start)
 
     def render(
         self,
