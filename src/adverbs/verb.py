@@ -276,9 +276,9 @@ class Verb:
         steps = np.exp(w @ self._log_intervals)
         return np.concatenate([np.zeros(steps.shape[:-1] + (1,)), np.cumsum(steps, axis=-1)], axis=-1)
 
-    def control_points(self, p: np.ndarray) -> np.ndarray:
-        """All control points ``(..., NumCP, D)`` at ``p`` (eq. 3)."""
-        w = self.weights(p)
+    def control_points(self, p: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
+        """All control points ``(..., NumCP, D)`` at ``p`` (eq. 3); ``weights`` if already known."""
+        w = self.weights(p) if weights is None else weights
         return np.tensordot(w, self.coefficients, axes=(-1, 0))
 
     def dofs(self, p: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -385,8 +385,7 @@ class Verb:
         """
         p = self.point(p)
         w = self.weights(p)
-        control = np.tensordot(w, self.coefficients, axes=(-1, 0))
-        return self.render(control, self.keytimes(p, w), duration, cycles, fps, start)
+        return self.render(self.control_points(p, w), self.keytimes(p, w), duration, cycles, fps, start)
 
     def render(
         self,
