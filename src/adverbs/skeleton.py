@@ -142,18 +142,6 @@ class Skeleton:
         bones[self.ancestors(self.body_root())] = False
         return bool(np.allclose(self.offsets[bones], other.offsets[bones], atol=tol, rtol=0.0))
 
-    def with_offsets(self, offsets: np.ndarray) -> Skeleton:
-        return Skeleton(
-            self.names,
-            self.parents,
-            offsets,
-            self.channels,
-            self.end_site_parents,
-            self.end_site_offsets,
-            self.unit_scale,
-            self.units,
-        )
-
     # ----- sides, mirroring, feet -------------------------------------------------------------
     def side(self, joint: int) -> str | None:
         """``"left"``, ``"right"`` or ``None`` for a joint that has no twin on the other side."""
