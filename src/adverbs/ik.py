@@ -31,6 +31,7 @@ MAX_STEP = 0.25  # radians: the largest joint change of one iteration
 ITERATIONS = 6
 MAX_DROP = 0.5  # the root is lowered by at most this fraction of the shortest leg's reach
 DAMPING = 0.01  # λ, metres
+MISS = 1e-3  # metres: an effector farther than this from its target counts as out of reach
 
 
 @dataclass(frozen=True, eq=False)
@@ -235,7 +236,7 @@ def solve_reference(
     rotations[..., chains.upper, :] = quat.from_matrix(l_upper)
     rotations[..., chains.middle, :] = quat.from_matrix(l_middle)
     rotations[..., chains.end, :] = quat.from_matrix(l_end)
-    return IKResult(rotations, translations, drop, residual > 1e-3, residual)
+    return IKResult(rotations, translations, drop, residual > MISS, residual)
 
 
 # ----- the compiled path -----------------------------------------------------------------------
@@ -253,7 +254,7 @@ def solve(
 ) -> IKResult:
     """:func:`solve_reference`, compiled: the same algorithm and results, one pose at a time in a loop.
 
-    One creature's two feet take a few microseconds instead of a millisecond of NumPy calls.
+    One creature's two feet take tens of microseconds instead of a couple of milliseconds of NumPy calls.
     """
     rotations, translations, targets = _checked(rotations, translations, targets, damping)
     lead = rotations.shape[:-2]
@@ -274,7 +275,7 @@ def solve(
     )  # fmt: skip
     residual = residual.reshape(lead + (n_legs,))
     return IKResult(
-        rot.reshape(rotations.shape), trans.reshape(translations.shape), drop.reshape(lead), residual > 1e-3, residual
+        rot.reshape(rotations.shape), trans.reshape(translations.shape), drop.reshape(lead), residual > MISS, residual
     )
 
 
