@@ -169,8 +169,7 @@ def _predict(method: str, verb: Verb, keep: np.ndarray, target: np.ndarray) -> t
             return None
         interp = AdverbInterpolator(pts, linear=linear)
         if method == "linear":
-            lin = np.concatenate([[1.0], (target - interp.centre) / interp.scale])
-            pred = lin @ (interp._lin_pinv @ values)
+            pred = interp.linear_weights(target) @ values
         else:
             pred = interp.weights(target) @ values
     n = coef.shape[1] * coef.shape[2]

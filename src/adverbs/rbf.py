@@ -163,6 +163,10 @@ class AdverbInterpolator:
         w += self._linear_basis(q) @ self._lin_pinv
         return w.reshape(shape + (len(self._q),))
 
+    def linear_weights(self, p: np.ndarray) -> np.ndarray:
+        """Weights ``(..., E)`` of the least-squares hyperplane alone, ``A(p) A⁺`` (no radial part)."""
+        return self._linear_basis(self._normalized(p)) @ self._lin_pinv
+
     def weights_one(self, p: np.ndarray) -> np.ndarray:
         """:meth:`weights` for a single point ``(A,)``: the same numbers with fewer array operations."""
         q = (p - self.centre) * self._inv_scale
