@@ -15,10 +15,10 @@ import numpy as np
 from timing import median_seconds, print_table
 
 from adverbs import ik
-from adverbs.evaluate import obedience_points
-from adverbs.floor import SlopeFloor, tilt
-from adverbs.planting import effector_joints, foot_drift, plant_feet, plant_feet_many
-from adverbs.spec import build_from_spec
+from adverbs.apps.evaluate import obedience_points
+from adverbs.kinematics.floor import SlopeFloor, tilt
+from adverbs.verb.planting import effector_joints, foot_drift, plant_feet, plant_feet_many
+from adverbs.verb.fit import build_from_spec
 
 SPECS = Path(__file__).resolve().parent.parent / "specs"
 
@@ -26,7 +26,7 @@ SPECS = Path(__file__).resolve().parent.parent / "specs"
 def main() -> None:
     rows = []
     verb = build_from_spec(SPECS / "bandai_styled_walk.toml")
-    chains = verb.leg_chains()
+    chains = verb.leg_chains
     rng = np.random.default_rng(0)
     lo, hi = verb.points.min(axis=0), verb.points.max(axis=0)
     # Poses from the verb at many adverb points and phases, targets a few centimetres off the verb's feet.

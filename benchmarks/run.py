@@ -14,7 +14,7 @@ import numpy as np
 from timing import median_seconds, print_table
 
 from adverbs import forward_kinematics, read_bvh
-from adverbs.encoding import DofEncoding
+from adverbs.motion.encoding import DofEncoding
 
 DATA = Path(__file__).resolve().parent.parent / "data"
 

@@ -15,9 +15,11 @@ import numpy as np
 from timing import median_seconds, print_table
 from scipy.interpolate import RBFInterpolator
 
-from adverbs import bspline
-from adverbs.spec import build_from_spec, examples_from_spec, load_spec
-from adverbs.verb import Verb
+from adverbs.interp import bspline
+from adverbs.verb.examples import examples_from_spec
+from adverbs.verb.fit import build_from_spec, build_verb
+from adverbs.verb.spec import load_spec
+
 
 SPECS = Path(__file__).resolve().parent.parent / "specs"
 
@@ -28,9 +30,9 @@ def main() -> None:
     spec = load_spec(SPECS / f"{largest}.toml")
     examples, adverbs = examples_from_spec(spec)
     build = median_seconds(
-        lambda: Verb.build(spec["name"], examples, adverbs, spec["num_cp"], spec["encoding"], spec["cyclic"]), 5
+        lambda: build_verb(spec["name"], examples, adverbs, spec["num_cp"], spec["encoding"], spec["cyclic"]), 5
     )
-    verb = Verb.build(spec["name"], examples, adverbs, spec["num_cp"], spec["encoding"], spec["cyclic"])
+    verb = build_verb(spec["name"], examples, adverbs, spec["num_cp"], spec["encoding"], spec["cyclic"])
     size = f"{len(examples)} examples, {verb.encoding.num_dofs} DOFs, NumCP {verb.num_cp}"
     rows.append((f"build {verb.name} ({size})", f"{build * 1e3:.0f} ms"))
     from_spec = median_seconds(lambda: build_from_spec(SPECS / f"{largest}.toml"), 3)

@@ -36,13 +36,14 @@ VERB_SPECS = ["cmu_walk", "bandai_styled_walk", "bandai_reach"]
 @pytest.fixture(scope="session")
 def verbs():
     """The three real verbs, built once from their specs: name → (verb, examples)."""
-    from adverbs.spec import examples_from_spec, load_spec
-    from adverbs.verb import Verb
+    from adverbs.verb.examples import examples_from_spec
+    from adverbs.verb.spec import load_spec
+    from adverbs.verb.fit import build_verb
 
     out = {}
     for name in VERB_SPECS:
         spec = load_spec(SPECS / f"{name}.toml")
         examples, adverbs = examples_from_spec(spec)
-        verb = Verb.build(spec["name"], examples, adverbs, spec["num_cp"], spec["encoding"], spec["cyclic"])
+        verb = build_verb(spec["name"], examples, adverbs, spec["num_cp"], spec["encoding"], spec["cyclic"])
         out[name] = (verb, examples)
     return out

@@ -7,7 +7,7 @@ import pytest
 from conftest import ALL_BVH, BANDAI, CMU, DATA, ONE_PER_SOURCE, REACTIDLE, ids
 
 from adverbs import BVHError, format_bvh, parse_bvh, read_bvh, write_bvh
-from adverbs.fk import bone_lengths
+from adverbs.kinematics.fk import bone_lengths
 
 
 def test_every_source_is_shipped():

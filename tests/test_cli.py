@@ -15,7 +15,7 @@ from adverbs import read_bvh
 
 def run(*args):
     return subprocess.run(
-        [sys.executable, "-m", "adverbs.cli", *map(str, args)], capture_output=True, text=True, check=False
+        [sys.executable, "-m", "adverbs", *map(str, args)], capture_output=True, text=True, check=False
     )
 
 

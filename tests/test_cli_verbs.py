@@ -10,8 +10,8 @@ from conftest import SPECS
 from test_cli import run
 
 from adverbs import read_bvh
-from adverbs.contacts import find_contacts
-from adverbs.measures import measure
+from adverbs.motion.contacts import find_contacts
+from adverbs.verb.measures import measure
 
 
 def test_build_describe_synth_evaluate(tmp_path):

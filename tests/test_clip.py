@@ -7,7 +7,7 @@ import pytest
 from conftest import BANDAI, CMU, ONE_PER_SOURCE, ids
 
 from adverbs import AdverbsError, read_bvh
-from adverbs.encoding import heading, lateral_axis
+from adverbs.motion.heading import heading, lateral_axis
 
 
 def _heading_change(clip) -> float:
@@ -99,7 +99,7 @@ def test_resample_down_keeps_duration_and_bones(bandai_walk):
     down = bandai_walk.resample(24)
     assert down.fps == 24
     assert abs(down.duration - bandai_walk.duration) < 1 / 24
-    from adverbs.fk import bone_lengths
+    from adverbs.kinematics.fk import bone_lengths
 
     skel = bandai_walk.skeleton
     legs = [skel.index(n) - 1 for n in ("LowerLeg_L", "Foot_L", "Toes_R")]

@@ -9,7 +9,8 @@ import pytest
 from conftest import BANDAI, CMU, REACTIDLE, ids
 
 from adverbs import AdverbsError, read_bvh
-from adverbs.contacts import cut_steps, find_contacts, foot_points
+from adverbs.motion.contacts import find_contacts, foot_points
+from adverbs.motion.cutting import cut_steps
 
 WALKS = sorted(CMU.glob("16_*walk*.bvh")) + sorted(BANDAI.glob("dataset-*_walk*.bvh"))
 

@@ -7,7 +7,7 @@ import pytest
 from conftest import ALL_BVH, BANDAI, CMU, ids
 
 from adverbs import AdverbsError, read_bvh
-from adverbs.encoding import ROOT_COLUMNS, DofEncoding
+from adverbs.motion.encoding import ROOT_COLUMNS, DofEncoding
 
 SAMPLE = ALL_BVH[::3]
 

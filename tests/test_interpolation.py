@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 from scipy.interpolate import BSpline
 
-from adverbs import AdverbsError, bspline, timewarp
-from adverbs.rbf import AdverbInterpolator, bspline_profile
+from adverbs import AdverbsError
+from adverbs.interp import bspline, timewarp
+from adverbs.interp.rbf import AdverbInterpolator, bspline_profile
 
 RNG = np.random.default_rng(3)
 

@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 
 from adverbs import AdverbsError, ik
-from adverbs.constraints import Constraint, phases
-from adverbs.contacts import foot_points
-from adverbs.evaluate import obedience_points
-from adverbs.floor import FlatFloor, FunctionFloor, HeightMapFloor, SlopeFloor, parse_floor
-from adverbs.planting import effector_joints, foot_drift, plant_feet, planted_drift
+from adverbs.verb.constraints import Constraint, phases
+from adverbs.motion.contacts import foot_points
+from adverbs.apps.evaluate import obedience_points
+from adverbs.kinematics.floor import FlatFloor, FunctionFloor, HeightMapFloor, SlopeFloor, parse_floor
+from adverbs.verb.planting import effector_joints, foot_drift, plant_feet, planted_drift
 
 WALKS = ["cmu_walk", "bandai_styled_walk"]
 
@@ -64,7 +64,7 @@ def test_ik_changes_only_the_leg_chains_and_root_height(verbs, name):
     verb, _ = verbs[name]
     clip, k = verb.synthesize(verb.points[2], cycles=2)
     planted, _ = plant_feet(verb, clip, k, SlopeFloor(8.0))
-    chains = verb.leg_chains()
+    chains = verb.leg_chains
     allowed = set(chains.upper) | set(chains.middle) | set(chains.end)
     others = [j for j in range(verb.skeleton.num_joints) if j not in allowed]
     assert np.array_equal(planted.rotations[:, others], clip.rotations[:, others])
@@ -85,7 +85,7 @@ def test_no_angular_velocity_spike_where_constraints_open_or_close(verbs, name):
     """Around every opening and closing (±5 frames) no joint turns faster than 1.5× the fastest joint of the
     free motion; at and between the examples, no leg joint faster than 1.5× its own fastest free speed."""
     verb, _ = verbs[name]
-    chains = verb.leg_chains()
+    chains = verb.leg_chains
     legs = sorted(set(chains.upper) | set(chains.middle) | set(chains.end))
     for kind, pts in _points(verb).items():
         for p in pts:
@@ -129,7 +129,7 @@ def test_feet_sit_on_a_slope(verbs, name):
 def test_unreachable_targets_leave_a_finite_pose_and_a_warning(verbs):
     verb, _ = verbs["cmu_walk"]
     clip, k = verb.synthesize(verb.points[0], cycles=1)
-    chains = verb.leg_chains()
+    chains = verb.leg_chains
     # A target far beyond the leg.
     targets = clip.global_positions()[:, effector_joints(verb)] + np.array([3.0, 0.0, 0.0])
     for solve in (ik.solve, ik.solve_reference):
@@ -146,7 +146,7 @@ def test_unreachable_targets_leave_a_finite_pose_and_a_warning(verbs):
 
 def test_compiled_solver_equals_the_reference_and_batch_equals_single(verbs):
     verb, _ = verbs["bandai_styled_walk"]
-    chains = verb.leg_chains()
+    chains = verb.leg_chains
     clip, _ = verb.synthesize(verb.points[1], cycles=1)
     rng = np.random.default_rng(4)
     targets = clip.global_positions()[:, effector_joints(verb)] + rng.normal(scale=0.05, size=(clip.num_frames, 2, 3))
@@ -186,7 +186,7 @@ def test_floors(tmp_path):
 def test_toe_offs_as_keytimes_close_the_constraints(tmp_path):
     from conftest import CMU
 
-    from adverbs.spec import build_from_spec
+    from adverbs.verb.fit import build_from_spec
 
     spec = tmp_path / "walk.toml"
     spec.write_text(
@@ -204,7 +204,7 @@ def test_toe_offs_as_keytimes_close_the_constraints(tmp_path):
 
 
 def test_many_creatures_at_once_equal_one_at_a_time(verbs):
-    from adverbs.planting import plant_feet_many
+    from adverbs.verb.planting import plant_feet_many
 
     verb, _ = verbs["cmu_walk"]
     rng = np.random.default_rng(2)
@@ -222,7 +222,7 @@ def test_many_creatures_at_once_equal_one_at_a_time(verbs):
 def test_solver_refuses_bad_input_the_same_way(verbs):
     verb, _ = verbs["cmu_walk"]
     clip, _ = verb.synthesize(verb.points[0], cycles=1)
-    chains = verb.leg_chains()
+    chains = verb.leg_chains
     targets = clip.global_positions()[:, effector_joints(verb)]
     bad = targets.copy()
     bad[3, 0, 1] = np.nan
@@ -241,7 +241,7 @@ def test_a_root_without_position_channels_still_rides_the_floor(tmp_path):
     from conftest import CMU
 
     from adverbs import read_bvh, write_bvh
-    from adverbs.spec import build_from_spec
+    from adverbs.verb.fit import build_from_spec
 
     files = []
     for name in ("16_15_walk", "16_21_walk"):

@@ -6,7 +6,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from adverbs import quat
-from adverbs.floor import tilt
+from adverbs.kinematics.floor import tilt
 
 RNG = np.random.default_rng(9)
 Q = Rotation.random(500, random_state=1).as_quat()

@@ -5,7 +5,8 @@ from __future__ import annotations
 import pytest
 from conftest import BANDAI, CMU, SPECS
 
-from adverbs.spec import SpecError, build_from_spec, load_spec
+from adverbs.verb.fit import build_from_spec
+from adverbs.verb.spec import SpecError, load_spec
 
 HEAD = """
 name = "test-walk"

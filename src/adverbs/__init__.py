@@ -1,25 +1,80 @@
 """adverbs: verbs and adverbs — continuous, controllable motion from a few example clips.
 
-The foundation layers: BVH in and out (:mod:`adverbs.bvh`), the skeleton (:mod:`adverbs.skeleton`),
-forward kinematics (:mod:`adverbs.fk`), clips (:mod:`adverbs.clip`), DOF encodings
-(:mod:`adverbs.encoding`) and foot contacts and example cutting (:mod:`adverbs.contacts`).
+The package is cut in layers, each a subpackage that imports only from the ones below it:
+
+| layer | holds |
+| --- | --- |
+| :mod:`adverbs.interp` | B-splines, keytime warping, linear + radial interpolation (pure numerics) |
+| :mod:`adverbs.kinematics` | quaternions, skeletons, forward kinematics, two-bone IK, floors |
+| :mod:`adverbs.motion` | clips, heading, DOF encodings, foot contacts, cutting examples |
+| :mod:`adverbs.io` | BVH read and write |
+| :mod:`adverbs.verb` | a verb's tables, building, sampling, synthesis, files, specs, measures, planted feet |
+| :mod:`adverbs.apps` | the command line and evaluation |
+
+What most users need is re-exported here, so ``import adverbs`` is enough.
 """
 
-from .bvh import format_bvh, parse_bvh, read_bvh, write_bvh
-from .clip import Clip
 from .errors import AdverbsError, BVHError
-from .fk import forward_kinematics
-from .skeleton import Skeleton
+from .interp import AdverbInterpolator
+from .io import format_bvh, parse_bvh, read_bvh, write_bvh
+from .kinematics import FlatFloor, HeightMapFloor, LegChains, Skeleton, SlopeFloor, forward_kinematics, ik, quat
+from .motion import Clip, DofEncoding, cut_steps, find_contacts
+from .verb import (
+    Adverb,
+    Constraint,
+    Example,
+    SamplingState,
+    SpecError,
+    Verb,
+    advance,
+    build_from_spec,
+    build_verb,
+    foot_drift,
+    load_spec,
+    load_verb,
+    plant_feet,
+    plant_feet_many,
+    sample,
+    save_verb,
+    synthesize,
+)
 
 __all__ = [
+    "Adverb",
+    "AdverbInterpolator",
     "AdverbsError",
     "BVHError",
     "Clip",
+    "Constraint",
+    "DofEncoding",
+    "Example",
+    "FlatFloor",
+    "HeightMapFloor",
+    "LegChains",
+    "SamplingState",
     "Skeleton",
+    "SlopeFloor",
+    "SpecError",
+    "Verb",
+    "advance",
+    "build_from_spec",
+    "build_verb",
+    "cut_steps",
+    "find_contacts",
+    "foot_drift",
     "format_bvh",
     "forward_kinematics",
+    "ik",
+    "load_spec",
+    "load_verb",
     "parse_bvh",
+    "plant_feet",
+    "plant_feet_many",
+    "quat",
     "read_bvh",
+    "sample",
+    "save_verb",
+    "synthesize",
     "write_bvh",
 ]
 __version__ = "0.1.0"

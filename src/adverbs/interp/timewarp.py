@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .errors import AdverbsError
+from ..errors import AdverbsError
 
 
 def check_keytimes(keytimes: np.ndarray, what: str = "keytimes") -> np.ndarray:

@@ -22,8 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import AdverbsError
 from . import quat
-from .errors import AdverbsError
 from .skeleton import Skeleton
 
 REACH = 0.999  # fraction of the straight leg's length a target may ask for

@@ -10,10 +10,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import quat
-from .errors import AdverbsError
-from .fk import forward_kinematics
-from .skeleton import Skeleton
+from ..errors import AdverbsError
+from ..kinematics import quat
+from ..kinematics.fk import forward_kinematics
+from ..kinematics.skeleton import Skeleton
 
 
 @dataclass(eq=False)

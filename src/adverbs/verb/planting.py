@@ -19,11 +19,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import ik, quat
-from .clip import Clip
+from ..kinematics import ik, quat
+from ..kinematics.floor import FlatFloor, Floor, tilt
+from ..motion.clip import Clip
 from .constraints import phases
-from .floor import Floor, FlatFloor, tilt
-from .verb import Verb
+from .tables import Verb
 
 RELEASE = 1.0  # seconds: the longest a closed constraint takes to let go (it is done by the next landing)
 
@@ -78,7 +78,7 @@ def plant_feet_many(
     floor = FlatFloor(verb.floor) if floor is None else floor
     if not verb.constraints:
         return [(clip, PlantingReport([], np.zeros(clip.num_frames), 0)) for clip, _ in motions]
-    chains = verb.leg_chains()
+    chains = verb.leg_chains
     tips = effector_joints(verb)
     held, trans, spans, releases, starts = [], [], [], [], [0]
     for clip, keytimes in motions:

@@ -22,13 +22,14 @@ from pathlib import Path
 
 import numpy as np
 
-from .bvh import read_bvh, write_bvh
-from .clip import Clip
-from .contacts import find_contacts
-from .errors import AdverbsError
-from .floor import parse_floor
-from .planting import foot_drift, plant_feet
-from .verb import Verb
+from ..errors import AdverbsError
+from ..io.bvh import read_bvh, write_bvh
+from ..kinematics.floor import parse_floor
+from ..motion.clip import Clip
+from ..motion.contacts import find_contacts
+from ..verb.planting import foot_drift, plant_feet
+from ..verb.store import load_verb, save_verb
+from ..verb.tables import Verb
 
 
 def info(clip: Clip, path: str | Path) -> dict:
@@ -242,12 +243,12 @@ def _run(args: argparse.Namespace) -> None:
         write_bvh(clip, args.output)
         print(f"wrote {args.output}: {clip.num_frames} frames at {clip.fps:g} fps")
     elif args.command == "build":
-        from .spec import build_from_spec
+        from ..verb.fit import build_from_spec
 
         start = time.perf_counter()
         verb = build_from_spec(args.spec)
         seconds = time.perf_counter() - start
-        verb.save(args.output)
+        save_verb(verb, args.output)
         worst = max(x.fit_error for x in verb.examples)
         print(
             f"built {verb.name}: {len(verb.examples)} examples, {len(verb.adverbs)} adverbs, "
@@ -255,13 +256,13 @@ def _run(args: argparse.Namespace) -> None:
             f"largest B-spline fit error {1000 * worst:.1f} mm; wrote {args.output}"
         )
     elif args.command == "describe":
-        d = describe(Verb.load(args.verb))
+        d = describe(load_verb(args.verb))
         if args.json:
             print(json.dumps(d, indent=2))
         else:
             _print_describe(d)
     elif args.command == "synth":
-        verb = Verb.load(args.verb)
+        verb = load_verb(args.verb)
         p = verb.point(dict(args.adverb))
         floor = parse_floor(args.floor) if args.floor is not None else None
         if floor is not None and (args.no_ik or not verb.constraints):
@@ -290,7 +291,7 @@ def _run(args: argparse.Namespace) -> None:
     elif args.command == "evaluate":
         from .evaluate import evaluate
 
-        result = evaluate(Verb.load(args.verb))
+        result = evaluate(load_verb(args.verb))
         if args.json:
             print(json.dumps(result.to_dict(), indent=2))
         else:

@@ -14,10 +14,10 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from . import quat
-from .clip import Clip
-from .encoding import character_heading, lateral_axis
-from .errors import AdverbsError
+from ..errors import AdverbsError
+from ..kinematics import quat
+from ..motion.clip import Clip
+from ..motion.encoding import character_heading, lateral_axis
 
 MEASURES = ("speed", "turn_rate", "heading_change", "joint_position")
 _UNITS = {"speed": "m/s", "turn_rate": "deg/s", "heading_change": "deg", "joint_position": "m"}

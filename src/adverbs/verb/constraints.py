@@ -16,10 +16,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .clip import Clip
-from .contacts import find_contacts
-from .errors import AdverbsError
-from .skeleton import Skeleton
+from ..errors import AdverbsError
+from ..kinematics.skeleton import Skeleton
+from ..motion.clip import Clip
+from ..motion.contacts import find_contacts
 
 STANDING = 0.95  # fraction of frames a foot must be down in every example to count as planted throughout
 

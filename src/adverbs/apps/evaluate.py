@@ -30,12 +30,13 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import RBFInterpolator
 
-from . import bspline
-from .fk import forward_kinematics
-from .measures import measure_all
-from .planting import foot_drift, plant_feet
-from .rbf import AdverbInterpolator
-from .verb import Verb
+from ..interp import bspline
+from ..interp.rbf import AdverbInterpolator
+from ..kinematics.fk import forward_kinematics
+from ..verb.measures import measure_all
+from ..verb.planting import foot_drift, plant_feet
+from ..verb.synthesis import render
+from ..verb.tables import Verb
 
 METHODS = ("nearest", "linear", "idw", "scipy-rbf", "ours")
 SAMPLES = 60
@@ -132,7 +133,7 @@ def _measured(verb: Verb) -> list[int]:
 
 def measure_motion(verb: Verb, control_points: np.ndarray, keytimes: np.ndarray) -> np.ndarray:
     """Measured adverb values ``(M,)`` of one cycle rendered from control points and keytimes."""
-    clip, k = verb.render(control_points, keytimes, fps=max(verb.fps, 60.0))
+    clip, k = render(verb, control_points, keytimes, fps=max(verb.fps, 60.0))
     return measure_all(clip, k, [verb.adverbs[i].measure for i in _measured(verb)])
 
 

@@ -24,8 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .errors import AdverbsError
-
+from ..errors import AdverbsError
 
 ALPHA_CAP = 1.0  # the largest radial scale α, in ranges of the examples (scaled adverb units)
 
@@ -117,6 +116,16 @@ class AdverbInterpolator:
         self._distance_form = np.vstack([-2.0 * q.T, np.ones((1, e)), np.sum(q * q, axis=-1)[None]]) * inv_a2
         self._radial_a = self._radial_from_values / 6.0
         self._radial_b = self._radial_from_values * (-4.0 / 6.0)
+        self._kernel_tables = tuple(
+            np.ascontiguousarray(x, dtype=float)
+            for x in (self.centre, self._inv_scale, q, self._inv_alpha, self._radial_from_values, self._lin_pinv)
+        )
+
+    @property
+    def kernel_tables(self) -> tuple[np.ndarray, ...]:
+        """What a compiled evaluation of :meth:`weights_one` reads, in order: ``centre (A,)``, ``1 / scale (A,)``,
+        the examples' scaled points ``(E, A)``, ``1 / α (E,)``, ``M⁻¹ (I − A A⁺) (E, E)`` and ``A⁺ (A+1, E)``."""
+        return self._kernel_tables
 
     @staticmethod
     def _linear_basis(q: np.ndarray) -> np.ndarray:

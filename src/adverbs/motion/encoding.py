@@ -30,60 +30,18 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.ndimage import gaussian_filter1d
 from scipy.spatial.transform import Rotation
 
-from . import quat
+from ..errors import AdverbsError
+from ..kinematics import quat
+from ..kinematics.fk import forward_kinematics
+from ..kinematics.skeleton import Skeleton
 from .clip import Clip
-from .errors import AdverbsError
-from .fk import forward_kinematics
-from .skeleton import Skeleton
+from .heading import HEADING_SMOOTHING, character_heading, lateral_axis
 
 KINDS = ("euler", "logquat")
-HEADING_SMOOTHING = 0.3  # seconds
 ROOT_COLUMNS = ("root.vx", "root.vz", "root.turn", "root.y")
 _MOVING_TRANSLATION = 1e-7  # metres: position channels that vary more than this become DOFs
-
-
-def lateral_axis(skeleton: Skeleton, body_root: int) -> np.ndarray:
-    """Unit vector ``(3,)`` from the right hip to the left hip in the body root's frame.
-
-    Taken from the rest offsets of the nearest twin joints below the body root that stand apart;
-    skeletons without side names fall back to +X.
-    """
-    twin = skeleton.mirror_map()
-    rest = skeleton.rest_positions()
-    frontier = skeleton.children(body_root)
-    while frontier:
-        for j in frontier:
-            if twin[j] != j and skeleton.side(j) == "left":
-                d = rest[j] - rest[twin[j]]
-                if np.linalg.norm(d) > 1e-6:
-                    return d / np.linalg.norm(d)
-        frontier = [c for j in frontier for c in skeleton.children(j)]
-    return np.array([1.0, 0.0, 0.0])
-
-
-def heading(global_rotation: np.ndarray, lateral: np.ndarray) -> np.ndarray:
-    """Heading angles ``(...)`` in radians (0 faces +Z, positive towards +X) of body-root rotations ``(..., 4)``."""
-    left = quat.rotate(global_rotation, np.broadcast_to(lateral, global_rotation.shape[:-1] + (3,)))
-    # forward = left × up, in the horizontal plane.
-    return np.arctan2(-left[..., 2], left[..., 0])
-
-
-def character_heading(
-    global_rotation: np.ndarray, lateral: np.ndarray, fps: float, smoothing: float = HEADING_SMOOTHING
-) -> np.ndarray:
-    """The character's heading ``(F,)``, unwrapped: the hips' heading low-passed over ``smoothing`` seconds.
-
-    The pelvis swings its yaw back and forth with every step; the character's heading is the
-    direction it travels around, so the swing is filtered out (a Gaussian of standard deviation
-    ``smoothing``) and left to the body root's orientation relative to the heading.
-    """
-    h = np.unwrap(heading(global_rotation, lateral))
-    if smoothing > 0 and len(h) > 1:
-        h = gaussian_filter1d(h, smoothing * fps, mode="nearest")
-    return h
 
 
 @dataclass(frozen=True, eq=False)
@@ -260,6 +218,78 @@ class DofEncoding:
         return out
 
     # ----- decode ----------------------------------------------------------------------------
+    def root_path(
+        self, dofs: np.ndarray, fps: float, start: np.ndarray | Sequence[float] = (0.0, 0.0, 0.0)
+    ) -> np.ndarray:
+        """Root ``(x, z, heading)`` ``(..., F, 3)`` at every frame of DOFs ``(..., F, D)`` played at ``fps``.
+
+        The root columns integrated from ``start`` (broadcast over the leading axes): what
+        :meth:`advance_root` gives frame after frame, written as cumulative sums.
+        """
+        dofs = self._checked(dofs, 2)
+        start = np.asarray(start, dtype=float)
+        lead, f = dofs.shape[:-2], dofs.shape[-2]
+        dt = 1.0 / fps
+        h = start[..., 2, None] + np.concatenate(
+            [np.zeros(lead + (1,)), np.cumsum(dofs[..., :-1, 2] * dt, axis=-1)], axis=-1
+        )
+        mid = 0.5 * (h[..., 1:] + h[..., :-1])
+        v = np.stack([dofs[..., :-1, 0], np.zeros(lead + (f - 1,)), dofs[..., :-1, 1]], axis=-1)
+        steps = quat.rotate(quat.about_y(mid), v) * dt
+        xz = np.concatenate([np.zeros(lead + (1, 3)), np.cumsum(steps, axis=-2)], axis=-2)
+        return np.stack([start[..., 0, None] + xz[..., 0], start[..., 1, None] + xz[..., 2], h], axis=-1)
+
+    def advance_root(self, root: np.ndarray, dofs: np.ndarray, dt: float | np.ndarray) -> np.ndarray:
+        """The root ``(..., 3)`` = ``(x, z, heading)`` moved on by ``dt`` seconds at the velocities of ``dofs (..., D)``.
+
+        One step of the integration :meth:`root_path` does for a whole clip: the heading turns by
+        ``root.turn · dt`` and the body travels ``(root.vx, root.vz) · dt`` in the frame of the
+        heading halfway through the step (the midpoint rule). A run-time loop calls this once per
+        frame, after it has blended or changed the velocities it integrates.
+        """
+        root = np.asarray(root, dtype=float)
+        dofs = self._checked(dofs, 1)
+        h0 = root[..., 2]
+        h1 = h0 + dofs[..., 2] * dt
+        v = np.stack([dofs[..., 0], np.zeros_like(dofs[..., 0]), dofs[..., 1]], axis=-1)
+        step = quat.rotate(quat.about_y(0.5 * (h0 + h1)), v) * np.asarray(dt, dtype=float)[..., None]
+        return np.stack([root[..., 0] + step[..., 0], root[..., 1] + step[..., 2], h1], axis=-1)
+
+    def decode_pose(self, dofs: np.ndarray, root: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Local rotations ``(..., J, 4)`` and translations ``(..., J, 3)`` of poses ``dofs (..., D)``.
+
+        The body root stands at ``root (..., 3)`` = ``(x, z, heading)`` (from :meth:`root_path` or
+        :meth:`advance_root`), at the height in its ``root.y`` column.
+        """
+        dofs = self._checked(dofs, 1)
+        root = np.asarray(root, dtype=float)
+        lead = dofs.shape[:-1]
+        skel, body = self.skeleton, self.body_root
+        h = root[..., 2]
+        p = np.stack([root[..., 0], dofs[..., 3], root[..., 1]], axis=-1)
+        rotated = self.rotated
+        q = self._dofs_to_rotations(dofs[..., 4 : 4 + 3 * len(rotated)].reshape(lead + (len(rotated), 3)), rotated)
+        rotations = np.broadcast_to(quat.identity((skel.num_joints,)), lead + (skel.num_joints, 4)).copy()
+        rotations[..., rotated, :] = q
+        translations = np.broadcast_to(self.base_translations, lead + (skel.num_joints, 3)).copy()
+        if len(self.translated):
+            t = dofs[..., 4 + 3 * len(rotated) :].reshape(lead + (len(self.translated), 3))
+            translations[..., self.translated, :] = self.base_translations[self.translated] + t
+
+        # The body root's global transform, expressed below its (fixed) ancestors.
+        g_root = quat.mul(quat.about_y(h), rotations[..., body, :])
+        above = skel.ancestors(body)[1:]
+        if above:
+            apos, arot = forward_kinematics(skel.parents, quat.identity((skel.num_joints,)), self.base_translations)
+            parent = above[0]
+            inv_parent = quat.inv(arot[parent])
+            rotations[..., body, :] = quat.mul(inv_parent, g_root)
+            translations[..., body, :] = quat.rotate(inv_parent, p - apos[parent])
+        else:
+            rotations[..., body, :] = g_root
+            translations[..., body, :] = p
+        return rotations, translations
+
     def decode(
         self, dofs: np.ndarray, fps: float, start: np.ndarray | Sequence[float] = (0.0, 0.0, 0.0)
     ) -> tuple[np.ndarray, np.ndarray]:
@@ -268,45 +298,14 @@ class DofEncoding:
         The root is integrated from its velocities starting at ``start = (x, z, heading)``
         (broadcast over the leading axes): the inverse of :meth:`encode` given :meth:`start`.
         """
+        return self.decode_pose(dofs, self.root_path(dofs, fps, start))
+
+    def _checked(self, dofs: np.ndarray, ndim: int) -> np.ndarray:
         dofs = np.asarray(dofs, dtype=float)
-        if dofs.shape[-1] != self.num_dofs or dofs.ndim < 2:
-            raise AdverbsError(f"dofs must be (..., F, {self.num_dofs}), got {dofs.shape}")
-        start = np.asarray(start, dtype=float)
-        lead, f = dofs.shape[:-2], dofs.shape[-2]
-        skel, root = self.skeleton, self.body_root
-        dt = 1.0 / fps
-        turn = dofs[..., 2]
-        h = start[..., 2, None] + np.concatenate(
-            [np.zeros(lead + (1,)), np.cumsum(turn[..., :-1] * dt, axis=-1)], axis=-1
-        )
-        mid = 0.5 * (h[..., 1:] + h[..., :-1])
-        v = np.stack([dofs[..., :-1, 0], np.zeros(lead + (f - 1,)), dofs[..., :-1, 1]], axis=-1)
-        steps = quat.rotate(quat.about_y(mid), v) * dt
-        xz = np.concatenate([np.zeros(lead + (1, 3)), np.cumsum(steps, axis=-2)], axis=-2)
-        p = np.stack([start[..., 0, None] + xz[..., 0], dofs[..., 3], start[..., 1, None] + xz[..., 2]], axis=-1)
-
-        rotated = self.rotated
-        q = self._dofs_to_rotations(dofs[..., 4 : 4 + 3 * len(rotated)].reshape(lead + (f, len(rotated), 3)), rotated)
-        rotations = np.broadcast_to(quat.identity((skel.num_joints,)), lead + (f, skel.num_joints, 4)).copy()
-        rotations[..., rotated, :] = q
-        translations = np.broadcast_to(self.base_translations, lead + (f, skel.num_joints, 3)).copy()
-        if len(self.translated):
-            t = dofs[..., 4 + 3 * len(rotated) :].reshape(lead + (f, len(self.translated), 3))
-            translations[..., self.translated, :] = self.base_translations[self.translated] + t
-
-        # The body root's global transform, expressed below its (fixed) ancestors.
-        g_root = quat.mul(quat.about_y(h), rotations[..., root, :])
-        above = skel.ancestors(root)[1:]
-        if above:
-            apos, arot = forward_kinematics(skel.parents, quat.identity((skel.num_joints,)), self.base_translations)
-            parent = above[0]
-            inv_parent = quat.inv(arot[parent])
-            rotations[..., root, :] = quat.mul(inv_parent, g_root)
-            translations[..., root, :] = quat.rotate(inv_parent, p - apos[parent])
-        else:
-            rotations[..., root, :] = g_root
-            translations[..., root, :] = p
-        return rotations, translations
+        if dofs.ndim < ndim or dofs.shape[-1] != self.num_dofs:
+            shape = "(..., F, D)" if ndim == 2 else "(..., D)"
+            raise AdverbsError(f"dofs must be {shape} with D = {self.num_dofs}, got {dofs.shape}")
+        return dofs
 
     def decode_clip(
         self, dofs: np.ndarray, fps: float, start: Sequence[float] = (0.0, 0.0, 0.0), name: str = ""

@@ -1,193 +1,21 @@
-"""Verb spec files (TOML): what an animator writes by hand to make a verb.
-
-```toml
-name = "walk"
-encoding = "logquat"          # or "euler" (the paper's channels)
-num_cp = 12                   # B-spline control points per DOF (NumCP)
-cyclic = true                 # a cycle (walk) or a one-shot motion (reach)
-skeleton = "data/x.bvh"       # optional: every example must be on this skeleton
-cut = { foot = "left", steps = 2 }   # default part of each file: one cycle from a left heel strike
-fps = 30                      # optional: resample every example to this rate (needed when files differ)
-
-[[adverbs]]
-name = "turn"
-measure = "turn_rate"         # measured from each example; or a table {kind = "joint_position", ...}
-
-[[adverbs]]
-name = "mood"                 # no measure: every example gives it by hand
-unit = "sad -1 .. happy +1"
-
-[[examples]]
-name = "happy"
-file = "../data/bandai/dataset-1_walk_happy_001.bvh"
-cut = { foot = "left", strike = 1, steps = 2 }    # or strike = "most_turning"
-mirror = false
-adverbs = { mood = 1.0 }
-refine = false                # true: a local refinement, left out of the linear fit (see rbf)
-```
-
-An example's part is ``cut`` (heel strike ``strike`` of ``foot``, ``steps`` steps; its keytimes are
-the heel strikes) or ``frames = [A, B]`` (a frame range, end exclusive) with ``keytimes`` given in
-seconds from the part's start, or ``keytimes = { peak = "JOINT" }`` (start, the joint's highest
-point, end). Paths are relative to the spec file. Every mistake raises :class:`SpecError` naming the
-file, the example and the field.
-"""
+"""The examples a spec names: read, resampled, mirrored, cut at contact events, annotated and measured."""
 
 from __future__ import annotations
 
 import math
-import tomllib
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from .bvh import read_bvh
-from .clip import Clip
-from .constraints import Constraint
-from .contacts import find_contacts, step_events, step_range
-from .encoding import KINDS
-from .errors import AdverbsError
-from .measures import MEASURES, check_measure, default_unit, measure, measure_all
-from .verb import Adverb, Example, Verb
-
-_TOP = {
-    "name",
-    "encoding",
-    "num_cp",
-    "cyclic",
-    "skeleton",
-    "cut",
-    "adverbs",
-    "examples",
-    "description",
-    "floor",
-    "constraints",
-    "fps",
-}
-_ADVERB = {"name", "unit", "measure", "description"}
-_EXAMPLE = {"name", "file", "cut", "frames", "keytimes", "mirror", "adverbs", "refine", "description"}
-_CUT = {"foot", "strike", "steps", "events"}
-
-
-class SpecError(AdverbsError):
-    """A mistake in a verb spec; ``path``, ``example`` and ``field`` say where."""
-
-    def __init__(self, path: Path, reason: str, example: str | None = None, field: str | None = None):
-        self.path, self.example, self.field, self.reason = str(path), example, field, reason
-        where = str(path)
-        if example is not None:
-            where += f": example {example!r}"
-        if field is not None:
-            where += f", field '{field}'" if example is not None else f": field '{field}'"
-        super().__init__(f"{where}: {reason}")
-
-
-def load_spec(path: str | Path) -> dict[str, Any]:
-    """Parse and check a spec's structure (types, names, fields); does not read the BVH files."""
-    path = Path(path)
-    try:
-        raw = tomllib.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise SpecError(path, "no such spec file") from None
-    except UnicodeDecodeError:
-        raise SpecError(path, "not a text file (UTF-8)") from None
-    except OSError as e:
-        raise SpecError(path, f"cannot read: {e.strerror}") from None
-    except tomllib.TOMLDecodeError as e:
-        raise SpecError(path, f"not valid TOML: {e}") from None
-    _unknown(path, raw, _TOP, None)
-    name = str(raw.get("name", path.stem))
-    if raw.get("cut") is not None and not isinstance(raw["cut"], dict):
-        raise SpecError(path, 'must be a table such as { foot = "left", steps = 2 }', field="cut")
-    if raw.get("skeleton") is not None and not isinstance(raw["skeleton"], str):
-        raise SpecError(path, "must be a path (a string)", field="skeleton")
-    encoding = raw.get("encoding", "logquat")
-    if encoding not in KINDS:
-        raise SpecError(path, f"unknown encoding {encoding!r}; use one of {', '.join(KINDS)}", field="encoding")
-    num_cp = raw.get("num_cp", 12)
-    if not isinstance(num_cp, int) or num_cp < 4:
-        raise SpecError(path, f"num_cp must be a whole number of at least 4, got {num_cp!r}", field="num_cp")
-    cyclic = raw.get("cyclic", True)
-    if not isinstance(cyclic, bool):
-        raise SpecError(path, f"cyclic must be true or false, got {cyclic!r}", field="cyclic")
-    adverbs = raw.get("adverbs")
-    if not isinstance(adverbs, list) or not adverbs:
-        raise SpecError(path, "a verb needs at least one [[adverbs]] entry", field="adverbs")
-    seen: set[str] = set()
-    for i, a in enumerate(adverbs):
-        if not isinstance(a, dict) or not isinstance(a.get("name"), str):
-            raise SpecError(path, f"adverb {i + 1} needs a name", field="adverbs")
-        _unknown(path, a, _ADVERB, None, f"adverbs.{a['name']}")
-        if a["name"] in seen:
-            raise SpecError(path, f"adverb {a['name']!r} is listed twice", field="adverbs")
-        seen.add(a["name"])
-        m = a.get("measure")
-        if isinstance(m, str):
-            a["measure"] = {"kind": m}
-        elif m is not None and not isinstance(m, dict):
-            raise SpecError(path, "measure must be a name or a table", field=f"adverbs.{a['name']}.measure")
-        if a.get("measure") is not None and a["measure"].get("kind") not in MEASURES:
-            raise SpecError(
-                path,
-                f"unknown measure {a['measure'].get('kind')!r}; measures are {', '.join(MEASURES)}",
-                field=f"adverbs.{a['name']}.measure",
-            )
-    examples = raw.get("examples")
-    if not isinstance(examples, list) or len(examples) < 2:
-        raise SpecError(path, "a verb needs at least two [[examples]]", field="examples")
-    names: set[str] = set()
-    for i, ex in enumerate(examples):
-        ex_name = ex.get("name", f"#{i + 1}") if isinstance(ex, dict) else f"#{i + 1}"
-        if not isinstance(ex, dict):
-            raise SpecError(path, "must be a table", ex_name)
-        ex["name"] = str(ex_name)
-        if ex["name"] in names:
-            raise SpecError(path, "two examples have this name", ex["name"], "name")
-        names.add(ex["name"])
-        _unknown(path, ex, _EXAMPLE, ex["name"])
-        if "file" not in ex:
-            raise SpecError(path, "missing", ex["name"], "file")
-        if not isinstance(ex["file"], str):
-            raise SpecError(path, f"must be a path (a string), got {ex['file']!r}", ex["name"], "file")
-        if "cut" in ex and not isinstance(ex["cut"], dict):
-            raise SpecError(path, 'must be a table such as { foot = "left", steps = 2 }', ex["name"], "cut")
-        if "cut" in ex and "frames" in ex:
-            raise SpecError(path, "give either 'cut' or 'frames', not both", ex["name"], "frames")
-    floor = raw.get("floor", 0.0)
-    if isinstance(floor, bool) or not isinstance(floor, int | float) or not math.isfinite(floor):
-        raise SpecError(path, f"must be a finite height in metres, got {floor!r}", field="floor")
-    fps = raw.get("fps")
-    if fps is not None and (isinstance(fps, bool) or not isinstance(fps, int | float) or not 0 < fps < 10000):
-        raise SpecError(path, f"must be a frame rate in frames per second, got {fps!r}", field="fps")
-    constraints = raw.get("constraints", "auto")
-    if constraints != "auto":
-        if not isinstance(constraints, list):
-            raise SpecError(path, 'must be "auto" or a list of { effector, open, close }', field="constraints")
-        for i, c in enumerate(constraints):
-            if not isinstance(c, dict) or set(c) != {"effector", "open", "close"}:
-                raise SpecError(path, "each needs exactly effector, open and close", field=f"constraints[{i}]")
-    return {
-        "path": path,
-        "name": name,
-        "floor": float(floor),
-        "fps": None if fps is None else float(fps),
-        "constraints": constraints,
-        "encoding": encoding,
-        "num_cp": num_cp,
-        "cyclic": cyclic,
-        "skeleton": raw.get("skeleton"),
-        "cut": raw.get("cut"),
-        "adverbs": adverbs,
-        "examples": examples,
-    }
-
-
-def _unknown(path: Path, table: dict, allowed: set[str], example: str | None, prefix: str = "") -> None:
-    extra = sorted(set(table) - allowed)
-    if extra:
-        field = f"{prefix}.{extra[0]}" if prefix else extra[0]
-        raise SpecError(path, f"unknown field; fields here are {', '.join(sorted(allowed))}", example, field)
+from ..errors import AdverbsError
+from ..io.bvh import read_bvh
+from ..motion.clip import Clip
+from ..motion.contacts import find_contacts
+from ..motion.cutting import most_turning, step_events, step_range
+from .measures import check_measure, default_unit, measure_all
+from .spec import CUT_FIELDS, SpecError
+from .tables import Adverb, Example
 
 
 def examples_from_spec(spec: dict[str, Any]) -> tuple[list[Example], list[Adverb]]:
@@ -341,9 +169,9 @@ def _cut(path: Path, ex: dict, clip: Clip, spec: dict) -> tuple[Clip, np.ndarray
     cut.update(ex.get("cut", {}))
     if not cut:
         return (clip, *_given_keytimes(path, ex, clip), "whole file")
-    extra = sorted(set(cut) - _CUT)
+    extra = sorted(set(cut) - CUT_FIELDS)
     if extra:
-        raise SpecError(path, f"unknown field; cut takes {', '.join(sorted(_CUT))}", name, f"cut.{extra[0]}")
+        raise SpecError(path, f"unknown field; cut takes {', '.join(sorted(CUT_FIELDS))}", name, f"cut.{extra[0]}")
     foot, steps, strike = cut.get("foot", "left"), cut.get("steps", 2), cut.get("strike", 0)
     events = cut.get("events", "strikes")
     if not isinstance(steps, int) or steps < 1:
@@ -355,7 +183,7 @@ def _cut(path: Path, ex: dict, clip: Clip, spec: dict) -> tuple[Clip, np.ndarray
     try:
         contacts = find_contacts(clip)
         if strike == "most_turning":
-            strikes = _most_turning(clip, foot, steps, contacts)
+            strikes = most_turning(clip, foot, steps, contacts)
         elif isinstance(strike, int) and strike >= 0:
             strikes = step_range(contacts, foot, strike, steps, clip.name)
         else:
@@ -375,25 +203,6 @@ def _cut(path: Path, ex: dict, clip: Clip, spec: dict) -> tuple[Clip, np.ndarray
         names,
         f"{steps} steps from {foot} heel strike {k}",
     )
-
-
-def _most_turning(clip: Clip, foot: str, steps: int, contacts) -> np.ndarray:
-    """The heel strikes of the cut whose heading changes most: where a turn clip actually turns."""
-    best = None
-    k = 0
-    while True:
-        try:
-            strikes = step_range(contacts, foot, k, steps, clip.name)
-        except AdverbsError:
-            break
-        part = clip.frames(int(strikes[0]), int(strikes[-1]) + 1)
-        turn = abs(measure(part, (strikes - strikes[0]) / clip.fps, {"kind": "heading_change"}))
-        if best is None or turn > best[0]:
-            best = (turn, strikes)
-        k += 1
-    if best is None:
-        step_range(contacts, foot, 0, steps, clip.name)  # raises the informative error
-    return best[1]
 
 
 def _given_keytimes(path: Path, ex: dict, part: Clip) -> tuple[np.ndarray, list[str]]:
@@ -438,32 +247,3 @@ def _given_keytimes(path: Path, ex: dict, part: Clip) -> tuple[np.ndarray, list[
             "keytimes",
         )
     return k, [f"keytime {i}" for i in range(len(k))]
-
-
-def build_from_spec(path: str | Path) -> Verb:
-    """Parse a spec, read and cut its examples, and build the verb."""
-    spec = load_spec(path)
-    examples, adverbs = examples_from_spec(spec)
-    constraints = spec["constraints"]
-    if constraints != "auto":
-        constraints = [Constraint(str(c["effector"]), c["open"], c["close"]) for c in constraints]
-    try:
-        return Verb.build(
-            spec["name"],
-            examples,
-            adverbs,
-            spec["num_cp"],
-            spec["encoding"],
-            spec["cyclic"],
-            constraints,
-            spec["floor"],
-        )
-    except SpecError:
-        raise
-    except AdverbsError as e:
-        text = str(e)
-        example = next((ex.name for ex in examples if f"{ex.name!r}" in text), None)
-        field = "adverbs" if "adverb point" in text or "non-finite" in text else None
-        if text.startswith("constraint on") or "no joint named" in text:
-            field = "constraints"
-        raise SpecError(spec["path"], text, example, field) from None

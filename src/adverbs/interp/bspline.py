@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .errors import AdverbsError
+from ..errors import AdverbsError
 
 
 def check_num_cp(num_cp: int) -> None:

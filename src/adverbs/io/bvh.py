@@ -14,10 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
-from . import quat
-from .clip import Clip
-from .errors import AdverbsError, BVHError
-from .skeleton import POSITION_CHANNELS, ROTATION_CHANNELS, Skeleton
+from ..errors import AdverbsError, BVHError
+from ..kinematics import quat
+from ..kinematics.skeleton import POSITION_CHANNELS, ROTATION_CHANNELS, Skeleton
+from ..motion.clip import Clip
 
 UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254, "ft": 0.3048}
 _CHANNELS = POSITION_CHANNELS + ROTATION_CHANNELS

@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 from scipy.interpolate import RegularGridInterpolator
 
+from ..errors import AdverbsError
 from . import quat
-from .errors import AdverbsError
 
 
 class Floor:

@@ -1,0 +1,106 @@
+"""Whole motions from a verb: the sampling kernel run over the frames of a clip, then decoded.
+
+:func:`synthesize` is offline synthesis as the run-time loop does it, all frames at once: one
+creature (``C = 1``) of :class:`~adverbs.verb.sampling.SamplingState`, sampled at the clock time of
+every frame (so cycles and their seams are handled by the kernel, exactly as for a live creature),
+the root integrated from its velocities and the poses decoded.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..errors import AdverbsError
+from ..interp import bspline
+from ..motion.clip import Clip
+from . import sampling
+
+if TYPE_CHECKING:
+    from .tables import Verb
+
+MAX_FRAMES = 1_000_000  # per synthesize call: about an hour at 240 fps
+
+
+def frame_clocks(
+    verb: Verb, length: float, duration: float | None = None, cycles: float | None = None, fps: float | None = None
+) -> tuple[np.ndarray, float]:
+    """Clock times ``(F,)`` of the frames of a motion whose cycle (or whole motion) lasts ``length`` seconds, and the fps.
+
+    ``cycles`` (default 1) repeats a cyclic verb; ``duration`` in seconds overrides it.
+    """
+    fps = verb.fps if fps is None else float(fps)
+    if not (np.isfinite(fps) and fps > 0):
+        raise AdverbsError(f"fps must be a positive number, got {fps}")
+    if cycles is not None and not verb.cyclic and float(cycles) != 1.0:
+        raise AdverbsError(f"verb {verb.name!r} is a one-shot motion: it plays once (give a duration instead of cycles)")
+    if duration is None:
+        duration = length * (1.0 if cycles is None else float(cycles))
+    if not (np.isfinite(duration) and duration > 0):
+        raise AdverbsError(f"duration must be a positive number of seconds, got {duration}")
+    frames = int(round(duration * fps)) + 1
+    if not 2 <= frames <= MAX_FRAMES:
+        raise AdverbsError(
+            f"{duration:g} s at {fps:g} fps is {frames} frames; synthesize between 2 and {MAX_FRAMES:,} at a time"
+        )
+    return np.arange(frames) / fps, fps
+
+
+def synthesize_dofs(
+    verb: Verb,
+    p: np.ndarray,
+    duration: float | None = None,
+    cycles: float | None = None,
+    fps: float | None = None,
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """DOFs ``(F, D)`` of one creature at ``p`` at every frame, its keytimes ``(N,)`` and the frame rate."""
+    state = sampling.SamplingState.new(verb, 1)
+    state.update(verb, verb.point(p)[None])
+    clocks, fps = frame_clocks(verb, state.keytimes[0, -1], duration, cycles, fps)
+    return sampling.clocks_dofs(verb, state, np.zeros(len(clocks), dtype=np.int64), clocks), state.keytimes[0].copy(), fps
+
+
+def synthesize(
+    verb: Verb,
+    p: np.ndarray,
+    duration: float | None = None,
+    cycles: float | None = None,
+    fps: float | None = None,
+    start: Sequence[float] = (0.0, 0.0, 0.0),
+) -> tuple[Clip, np.ndarray]:
+    """Motion at adverb point ``p``: a clip and its keytimes ``(N,)`` (those of the first cycle).
+
+    ``cycles`` (default 1) repeats a cyclic verb, the root carrying on from where each cycle ends;
+    ``duration`` in seconds overrides it. The root starts at ``start = (x, z, heading)``.
+    """
+    dofs, k, fps = synthesize_dofs(verb, p, duration, cycles, fps)
+    return verb.encoding.decode_clip(dofs, fps, start, name=verb.name), k
+
+
+def render(
+    verb: Verb,
+    control_points: np.ndarray,
+    keytimes: np.ndarray,
+    duration: float | None = None,
+    cycles: float | None = None,
+    fps: float | None = None,
+    start: Sequence[float] = (0.0, 0.0, 0.0),
+) -> tuple[Clip, np.ndarray]:
+    """Motion from any control points ``(NumCP, D)`` and keytimes ``(N,)`` on ``verb``'s encoding.
+
+    For curves that are not the verb's own interpolation (other interpolators, in ``evaluate``):
+    the same kernel reading a one-example table, ``w = [1]``.
+    """
+    cp = np.asarray(control_points, dtype=float)
+    k = np.asarray(keytimes, dtype=float)
+    if cp.shape != (verb.num_cp, verb.num_dofs) or k.shape != (verb.num_keytimes,):
+        raise AdverbsError(f"render: control points {cp.shape} and keytimes {k.shape} do not fit verb {verb.name!r}")
+    v0, _, v1, _ = bspline.ends(cp)
+    clocks, fps = frame_clocks(verb, k[-1], duration, cycles, fps)
+    dofs, _ = sampling.run_kernel(
+        np.ascontiguousarray(cp[:, None, :] / 6.0), np.ones((1, 1)), k[None], (v1 - v0)[None],
+        np.zeros(len(clocks)), clocks, sampling.mode(verb),
+    )  # fmt: skip
+    return verb.encoding.decode_clip(dofs, fps, start, name=verb.name), k

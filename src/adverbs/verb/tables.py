@@ -1,0 +1,263 @@
+"""A verb as immutable tables: example points, keytimes, B-spline coefficients, encoding, constraints (§3, §4).
+
+A built verb is data that any number of creatures read at once. Nothing in it changes after it is
+made (its arrays are read-only); everything that changes while a creature moves — the weights and
+keytimes cached for its adverb point, its cycle, its root — lives in a
+:class:`~adverbs.verb.sampling.SamplingState` the caller owns.
+
+The tables are what the paper interpolates: every control point and every keytime is a function of
+the adverb point ``p`` through the cardinal weights of :class:`~adverbs.interp.rbf.AdverbInterpolator`
+(eqs. 3, 4), ``b(p) = Σ_i w_i(p) b_i``.
+
+Keytime policy: the paper interpolates keytimes directly (eq. 4), which can make them cross when
+extrapolating. Here the *intervals* between keytimes are interpolated as logarithms,
+``K_{m+1}(p) − K_m(p) = exp(Σ_i w_i(p) log(K_{i,m+1} − K_{i,m}))``, so keytimes are strictly increasing at
+every ``p``, examples are still reproduced exactly, and durations extrapolate multiplicatively (a walk
+25% faster than the fastest example gets shorter, never negative, steps).
+
+Building the tables is :func:`adverbs.verb.fit.build_verb`, saving and loading them
+:mod:`adverbs.verb.store`, sampling them :mod:`adverbs.verb.sampling` and whole motions
+:mod:`adverbs.verb.synthesis`; the methods here are thin calls of those.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+
+from ..errors import AdverbsError
+from ..interp import bspline, timewarp
+from ..interp.rbf import AdverbInterpolator
+from ..kinematics.ik import LegChains
+from ..kinematics.skeleton import Skeleton
+from ..motion.clip import Clip
+from ..motion.encoding import DofEncoding
+from . import sampling, synthesis
+from .constraints import Constraint, check_constraint
+
+
+@dataclass(frozen=True)
+class Adverb:
+    """One axis of a verb's parameter space; ``measure`` says how it is read off a motion (or ``None``)."""
+
+    name: str
+    unit: str = ""
+    measure: dict | None = None
+
+
+@dataclass(eq=False)
+class Example:
+    """One example motion, cut and annotated: the input of :func:`~adverbs.verb.fit.build_verb`.
+
+    ``keytimes (N,)`` are clock seconds from 0 to the clip's duration; ``point (A,)`` its adverb values.
+    """
+
+    name: str
+    clip: Clip
+    keytimes: np.ndarray
+    point: np.ndarray
+    source: str = ""
+    part: str = ""
+    refine: bool = False  # a local refinement: radial part only, not in the linear fit
+    keytime_names: tuple[str, ...] = ()  # e.g. ("left strike", "right toe-off", ...)
+
+
+@dataclass(frozen=True)
+class ExampleRecord:
+    """What a built verb keeps about each example (its motion lives in the coefficient table)."""
+
+    name: str
+    source: str
+    part: str
+    fit_error: float = field(default=0.0)  # largest joint-position error of the B-spline fit, metres
+    refine: bool = False
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    a = np.array(a, dtype=float)  # a private copy: nobody else holds a reference that could write to it
+    a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class Verb:
+    """A parameterized motion: immutable tables shared by every creature that plays it.
+
+    Make one with :func:`~adverbs.verb.fit.build_verb` (or :func:`~adverbs.verb.fit.build_from_spec`,
+    :func:`~adverbs.verb.store.load_verb`).
+
+    Attributes
+    ----------
+    points : (E, A) adverb points of the examples
+    keytimes_table : (E, N) keytimes of the examples, seconds
+    coefficients : (E, NumCP, D) B-spline control points of every DOF of every example
+    encoding : DofEncoding (the skeleton is ``encoding.skeleton``)
+    constraints : the kinematic constraints (feet held between keytimes)
+    floor : height of the ground the examples stand on, metres
+
+    Derived tables (computed once): ``interpolator`` (cardinal weights), ``log_intervals (E, N-1)``,
+    ``segments (NumCP, E, D)`` (the coefficients by control point, with the B-spline basis's 1/6
+    folded in: what the sampling kernel reads) and ``seam_table (E, D)`` (each example's end value
+    minus its start value, ``d(1) − d(0)``: the jump hidden where a cycle follows itself).
+    """
+
+    name: str
+    encoding: DofEncoding
+    adverbs: tuple[Adverb, ...]
+    examples: tuple[ExampleRecord, ...]
+    points: np.ndarray
+    keytimes_table: np.ndarray
+    coefficients: np.ndarray
+    cyclic: bool
+    fps: float
+    keytime_names: tuple[str, ...] = ()
+    constraints: tuple[Constraint, ...] = ()
+    floor: float = 0.0
+    interpolator: AdverbInterpolator = field(init=False, repr=False)
+    log_intervals: np.ndarray = field(init=False, repr=False)
+    segments: np.ndarray = field(init=False, repr=False)
+    seam_table: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        name, enc = self.name, self.encoding
+        put = object.__setattr__  # the dataclass is frozen: fields are set once, here
+        put(self, "adverbs", tuple(self.adverbs))
+        put(self, "examples", tuple(self.examples))
+        put(self, "constraints", tuple(self.constraints))
+        put(self, "points", _frozen(self.points))
+        put(self, "keytimes_table", _frozen(timewarp.check_keytimes(self.keytimes_table, f"verb {name!r}")))
+        put(self, "coefficients", _frozen(self.coefficients))
+        put(self, "cyclic", bool(self.cyclic))
+        put(self, "fps", float(self.fps))
+        put(self, "floor", float(self.floor))
+        n = self.keytimes_table.shape[1]
+        put(self, "keytime_names", tuple(self.keytime_names) or tuple(f"keytime {i}" for i in range(n)))
+        if len(self.keytime_names) != n:
+            raise AdverbsError(f"verb {name!r}: {len(self.keytime_names)} keytime names for {n} keytimes")
+        for c in self.constraints:
+            check_constraint(c, enc.skeleton, n, self.cyclic)
+        e = len(self.examples)
+        if self.points.shape != (e, len(self.adverbs)) or self.keytimes_table.shape[0] != e:
+            raise AdverbsError(f"verb {name!r}: tables disagree on the number of examples or adverbs")
+        coef = self.coefficients
+        if coef.ndim != 3 or coef.shape[0] != e or coef.shape[2] != enc.num_dofs:
+            raise AdverbsError(f"verb {name!r}: coefficient table {coef.shape} does not fit")
+        bspline.check_num_cp(coef.shape[1])
+        put(
+            self,
+            "interpolator",
+            AdverbInterpolator(self.points, [x.name for x in self.examples], linear=[not x.refine for x in self.examples]),
+        )
+        put(self, "log_intervals", _frozen(np.log(np.diff(self.keytimes_table, axis=1))))
+        put(self, "segments", _frozen(coef.transpose(1, 0, 2) / 6.0))
+        v0, _, v1, _ = bspline.ends(coef.transpose(1, 0, 2))
+        put(self, "seam_table", _frozen(v1 - v0))
+
+    # ----- shape -------------------------------------------------------------------------------
+    @property
+    def skeleton(self) -> Skeleton:
+        return self.encoding.skeleton
+
+    @property
+    def num_cp(self) -> int:
+        return self.coefficients.shape[1]
+
+    @property
+    def num_keytimes(self) -> int:
+        return self.keytimes_table.shape[1]
+
+    @property
+    def num_dofs(self) -> int:
+        return self.encoding.num_dofs
+
+    @property
+    def adverb_names(self) -> tuple[str, ...]:
+        return tuple(a.name for a in self.adverbs)
+
+    @cached_property
+    def leg_chains(self) -> LegChains:
+        """The two-bone chains of the constrained effectors, knee axes fitted to the examples.
+
+        Derived from the tables alone, computed on first use and kept (it never changes).
+        """
+        if not self.constraints:
+            raise AdverbsError(f"verb {self.name!r} has no constraints")
+        e, n, d = self.coefficients.shape
+        flat = self.coefficients.transpose(1, 0, 2).reshape(n, e * d)
+        samples = bspline.evaluate(flat, np.linspace(0, 1, 24)).reshape(24, e, d)
+        rotations, _ = self.encoding.decode(samples.transpose(1, 0, 2), self.fps)
+        effectors = [c.effector for c in self.constraints]
+        return LegChains.build(self.skeleton, effectors, rotations.reshape(-1, *rotations.shape[-2:]))
+
+    def point(self, values: dict[str, float] | Sequence[float] | np.ndarray) -> np.ndarray:
+        """An adverb point ``(A,)`` from a mapping of adverb names (missing ones: the examples' mean) or a sequence."""
+        if isinstance(values, dict):
+            unknown = set(values) - set(self.adverb_names)
+            if unknown:
+                raise AdverbsError(
+                    f"verb {self.name!r} has no adverb {sorted(unknown)[0]!r}; adverbs are {', '.join(self.adverb_names)}"
+                )
+            p = self.points.mean(axis=0)
+            for k, v in values.items():
+                p[self.adverb_names.index(k)] = v
+        else:
+            p = np.array(values, dtype=float)
+        if p.shape[-1:] != (len(self.adverbs),):
+            raise AdverbsError(f"verb {self.name!r} takes {len(self.adverbs)} adverbs, got {p.shape[-1:]}")
+        if not np.all(np.isfinite(p)):
+            bad = [self.adverb_names[i] for i in np.flatnonzero(~np.isfinite(p.reshape(-1, p.shape[-1])).any(0))]
+            raise AdverbsError(f"adverb {bad[0]!r} must be a finite number")
+        return p
+
+    # ----- what depends on p alone ---------------------------------------------------------------
+    def weights(self, p: np.ndarray) -> np.ndarray:
+        """Cardinal weights ``(..., E)`` at adverb points ``(..., A)``."""
+        return self.interpolator.weights(p)
+
+    def keytimes(self, p: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
+        """Keytimes ``(..., N)`` at ``p``: strictly increasing from 0 (see the module's keytime policy)."""
+        w = self.weights(p) if weights is None else weights
+        steps = np.exp(w @ self.log_intervals)
+        return np.concatenate([np.zeros(steps.shape[:-1] + (1,)), np.cumsum(steps, axis=-1)], axis=-1)
+
+    def control_points(self, p: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
+        """All control points ``(..., NumCP, D)`` at ``p`` (eq. 3); ``weights`` if already known."""
+        w = self.weights(p) if weights is None else weights
+        return np.tensordot(w, self.coefficients, axes=(-1, 0))
+
+    def duration(self, p: np.ndarray) -> float:
+        """Clock duration ``K_N(p)`` of one cycle (or of the whole motion) at one point ``p (A,)``."""
+        return float(self.keytimes(self.point(p))[-1])
+
+    # ----- evaluation: thin calls of the one sampling kernel --------------------------------------
+    def state(self, creatures: int = 1, root: np.ndarray | None = None) -> sampling.SamplingState:
+        """A fresh :class:`~adverbs.verb.sampling.SamplingState` for ``creatures`` creatures of this verb."""
+        return sampling.SamplingState.new(self, creatures, root)
+
+    def sample(
+        self, points: np.ndarray, clocks: np.ndarray, state: sampling.SamplingState | None = None
+    ) -> tuple[np.ndarray, sampling.SamplingState]:
+        """DOFs ``(C, D)`` of C creatures at adverb points ``(C, A)`` and clock times ``(C,)``; see :func:`~adverbs.verb.sampling.sample`."""
+        return sampling.sample(self, points, clocks, state)
+
+    def pose(self, p: np.ndarray, clock: float, state: sampling.SamplingState | None = None) -> np.ndarray:
+        """DOFs ``(D,)`` of one creature at ``p (A,)`` and clock time ``clock`` seconds; see :func:`~adverbs.verb.sampling.pose`."""
+        return sampling.pose(self, p, clock, state)
+
+    def dofs(self, p: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """DOFs ``(Q, D)`` at adverb points ``(Q, A)`` and generic times ``(Q,)``; see :func:`~adverbs.verb.sampling.dofs`."""
+        return sampling.dofs(self, p, t)
+
+    def synthesize(
+        self,
+        p: np.ndarray,
+        duration: float | None = None,
+        cycles: float | None = None,
+        fps: float | None = None,
+        start: Sequence[float] = (0.0, 0.0, 0.0),
+    ) -> tuple[Clip, np.ndarray]:
+        """A clip at ``p`` and its keytimes ``(N,)``; see :func:`~adverbs.verb.synthesis.synthesize`."""
+        return synthesis.synthesize(self, p, duration, cycles, fps, start)
