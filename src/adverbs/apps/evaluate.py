@@ -16,7 +16,7 @@ degree 1); ``ours`` (linear + cubic B-spline radial bases, eqs. 3–4). All work
 adverb coordinates and interpolate log keytime intervals.
 
 Planted feet: at the same points, two cycles synthesized with and without the constraints enforced;
-the drift of each contact phase (see :func:`adverbs.planting.planted_drift`).
+the drift of each contact phase (see :func:`adverbs.verb.planting.planted_drift`).
 
 Obedience: our verb synthesized at every example, halfway between each example and its nearest
 neighbour, and 25% past each example (``c + 1.25 (p_i − c)``, ``c`` the examples' centre), each

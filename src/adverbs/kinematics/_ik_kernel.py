@@ -1,4 +1,4 @@
-"""The compiled loop behind :func:`adverbs.ik.solve`: the algorithm of ``ik.solve_reference``, pose by pose.
+"""The compiled loop behind :func:`adverbs.kinematics.ik.solve`: the algorithm of ``ik.solve_reference``, pose by pose.
 
 Every step mirrors the NumPy reference (same order of operations), so the two agree to rounding;
 a test holds them to it.

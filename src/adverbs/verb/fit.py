@@ -37,7 +37,7 @@ def build_verb(
     """Fit B-splines to every example in generic time and set up the interpolation (§3.1, §4).
 
     ``constraints`` are the verb's kinematic constraints, or ``"auto"`` to find them from the
-    examples' contact keytimes (see :mod:`adverbs.constraints`); ``floor`` is the height of the
+    examples' contact keytimes (see :mod:`adverbs.verb.constraints`); ``floor`` is the height of the
     ground the examples walk on.
     """
     if len(examples) < 2:

@@ -5,7 +5,7 @@ effector: its horizontal position then. Until the closing keytime the effector i
 it, the hold is released over ``release`` seconds (smoothstep), so nothing pops. Heights follow the
 floor: a point the verb carries ``h`` above its own flat ground is put ``h`` above the floor under it,
 and the root follows the floor under itself, so a walk goes up and down a slope; on a floor that is
-not flat each foot is also tilted to the surface. Every frame, :func:`adverbs.ik.solve` moves the
+not flat each foot is also tilted to the surface. Every frame, :func:`adverbs.kinematics.ik.solve` moves the
 legs (and lowers the root when a target is out of reach); nothing else changes.
 
 :func:`planted_drift` is the measure shared by tests, benchmarks and ``adverbs evaluate``: per contact

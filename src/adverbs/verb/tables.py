@@ -156,6 +156,13 @@ class Verb:
         v0, _, v1, _ = bspline.ends(coef.transpose(1, 0, 2))
         put(self, "seam_table", _frozen(v1 - v0))
 
+    def __repr__(self) -> str:
+        kind = "cyclic" if self.cyclic else "one-shot"
+        return (
+            f"Verb({self.name!r}: {kind}, {len(self.examples)} examples, adverbs {', '.join(self.adverb_names)}; "
+            f"{self.num_keytimes} keytimes, {self.num_dofs} DOFs x {self.num_cp} control points)"
+        )
+
     # ----- shape -------------------------------------------------------------------------------
     @property
     def skeleton(self) -> Skeleton:
