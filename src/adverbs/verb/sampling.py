@@ -57,7 +57,7 @@ class SamplingState:
     keytimes : (C, N)
         Keytimes ``K(p)``, seconds.
     seam : (C, D)
-        The seam jump ``d(1) − d(0)`` at ``points``.
+        The seam jump ``d(1) − d(0)`` at ``points`` (cyclic verbs; zero for one-shot ones).
     cycle : (C,) int
         The cycle each creature was in at its last sample (0 for the first).
     root : (C, 3)
@@ -128,9 +128,10 @@ class SamplingState:
             raise AdverbsError(f"adverb {bad!r} must be a finite number (got NaN or infinity)")
         self.points[changed] = p
         self.cached[changed] = True
+        d = verb.num_dofs if verb.cyclic else 0  # a one-shot verb has no seam to hide
         refresh_batch(
-            self.points, changed, *verb.interpolator.kernel_tables, verb.log_intervals, verb.seam_table,
-            self.weights, self.keytimes, self.seam,
+            self.points, changed, *verb.interpolator.kernel_tables, verb.log_intervals, verb.seam_table[:, :d],
+            self.weights, self.keytimes, self.seam[:, :d],
         )  # fmt: skip
 
 
