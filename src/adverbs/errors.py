@@ -30,3 +30,7 @@ class BVHError(AdverbsError):
         if line is not None:
             where = f"{where}:{line}"
         super().__init__(f"{where}: {reason}")
+
+
+class AdverbsWarning(UserWarning):
+    """Something worth knowing that does not stop the work: an adverb point far outside the examples."""

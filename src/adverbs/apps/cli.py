@@ -5,7 +5,7 @@
     adverbs build SPEC.toml -o VERB
     adverbs describe VERB [--json]
     adverbs synth VERB --adverb NAME=VALUE ... [--cycles N | --duration S] [--fps F]
-                  [--no-ik] [--floor slope:DEGREES | FILE.npz] -o OUT.bvh
+                  [--no-ik] [--clamp [MARGIN]] [--floor slope:DEGREES | FILE.npz] -o OUT.bvh
     adverbs evaluate VERB [--png PLOT.png] [--json]
 
 Errors in the input print one line naming the file and line and exit with status 1.
@@ -18,11 +18,12 @@ import json
 import os
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import AdverbsError
+from ..errors import AdverbsError, AdverbsWarning
 from ..io.bvh import read_bvh, write_bvh
 from ..kinematics.floor import parse_floor
 from ..motion.clip import Clip
@@ -143,6 +144,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fps", type=_positive, help="frame rate (default: the examples')")
     p.add_argument("--no-ik", action="store_true", help="leave the feet where the verb puts them (to compare)")
     p.add_argument(
+        "--clamp", nargs="?", const=0.0, default=None, type=_non_negative, metavar="MARGIN",
+        help="keep every adverb inside the examples' range (widened by MARGIN ranges, default 0)",
+    )  # fmt: skip
+    p.add_argument(
         "--floor", default=None, metavar="slope:DEGREES|FILE",
         help="the ground: flat (default, the verb's floor), slope:DEGREES rising along +Z, or a height map .npz",
     )  # fmt: skip
@@ -153,6 +158,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--png", type=Path, help="also plot to this PNG file")
     p.add_argument("--json", action="store_true", help="print JSON instead of tables")
     return parser
+
+
+def _non_negative(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not (np.isfinite(value) and value >= 0):
+        raise argparse.ArgumentTypeError(f"expected a number ≥ 0, got {text!r}")
+    return value
 
 
 def _assignment(text: str) -> tuple[str, float]:
@@ -264,6 +279,12 @@ def _run(args: argparse.Namespace) -> None:
     elif args.command == "synth":
         verb = load_verb(args.verb)
         p = verb.point(dict(args.adverb))
+        if args.clamp is not None:
+            kept = verb.clamp(p, args.clamp)
+            for name, a, b in zip(verb.adverb_names, p, kept):
+                if a != b:
+                    print(f"adverbs: {name}={a:g} clamped to {b:g} (--clamp {args.clamp:g})", file=sys.stderr)
+            p = kept
         floor = parse_floor(args.floor) if args.floor is not None else None
         if floor is not None and (args.no_ik or not verb.constraints):
             why = "--no-ik leaves the feet where the verb puts them" if args.no_ik else "the verb has no constraints"
@@ -303,10 +324,17 @@ def _run(args: argparse.Namespace) -> None:
                 print(f"\nplot: {args.png}")
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    print(f"adverbs: warning: {message}", file=sys.stderr)
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
-        _run(args)
+        with warnings.catch_warnings():
+            warnings.simplefilter("always", AdverbsWarning)
+            warnings.showwarning = _show_warning
+            _run(args)
     except AdverbsError as e:
         print(f"adverbs: error: {e}", file=sys.stderr)
         return 1

@@ -8,12 +8,13 @@ the root integrated from its velocities and the poses decoded.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..errors import AdverbsError
+from ..errors import AdverbsError, AdverbsWarning
 from ..interp import bspline
 from ..motion.clip import Clip
 from . import sampling
@@ -22,6 +23,8 @@ if TYPE_CHECKING:
     from .tables import Verb
 
 MAX_FRAMES = 1_000_000  # per synthesize call: about an hour at 240 fps
+LONGEST_CYCLE = 60.0  # seconds: a cycle (or one-shot motion) longer than this has degenerated
+WARN_BEYOND = 0.25  # ranges of the examples: farther out than this, synthesize warns
 
 
 def frame_clocks(
@@ -48,6 +51,25 @@ def frame_clocks(
     return np.arange(frames) / fps, fps
 
 
+def check_length(verb: Verb, p: np.ndarray, keytimes: np.ndarray, fps: float) -> None:
+    """Refuse, before any heavy work, an adverb point whose motion has degenerated.
+
+    Far enough outside the examples the interpolated keytimes run away: a cycle (or one-shot
+    motion) shorter than two frames, or longer than :data:`LONGEST_CYCLE` seconds.
+    """
+    length = float(keytimes[-1])
+    if np.isfinite(length) and 2.0 / fps <= length <= LONGEST_CYCLE:
+        return
+    values = ", ".join(f"{n}={v:g}" for n, v in zip(verb.adverb_names, p))
+    ranges = ", ".join(f"{n} {lo:g} .. {hi:g}" for n, lo, hi in zip(verb.adverb_names, verb.points.min(0), verb.points.max(0)))
+    what = "cycle" if verb.cyclic else "motion"
+    raise AdverbsError(
+        f"verb {verb.name!r} at {values}: the motion degenerates there (one {what} would last {length:.3g} s; "
+        f"it must last from two frames, {2.0 / fps:.3g} s, to {LONGEST_CYCLE:g} s). The examples span {ranges}: "
+        "ask for adverbs nearer them (adverbs synth --clamp keeps them inside)"
+    )
+
+
 def synthesize_dofs(
     verb: Verb,
     p: np.ndarray,
@@ -56,8 +78,23 @@ def synthesize_dofs(
     fps: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray, float]:
     """DOFs ``(F, D)`` of one creature at ``p`` at every frame, its keytimes ``(N,)`` and the frame rate."""
+    p = verb.point(p)
+    beyond = verb.outside(p)
+    if beyond.max() > WARN_BEYOND:
+        i = int(np.argmax(beyond))
+        lo, hi = verb.points[:, i].min(), verb.points[:, i].max()
+        warnings.warn(
+            f"{verb.adverbs[i].name}={p[i]:g} is {beyond[i]:.2g} ranges outside the examples ({lo:g} .. {hi:g}): "
+            "the motion is extrapolated that far",
+            AdverbsWarning,
+            stacklevel=3,
+        )
     state = sampling.SamplingState.new(verb, 1)
-    state.update(verb, verb.point(p)[None])
+    state.update(verb, p[None])
+    rate = verb.fps if fps is None else float(fps)
+    if not (np.isfinite(rate) and rate > 0):
+        raise AdverbsError(f"fps must be a positive number, got {fps}")
+    check_length(verb, p, state.keytimes[0], rate)
     clocks, fps = frame_clocks(verb, state.keytimes[0, -1], duration, cycles, fps)
     return sampling.clocks_dofs(verb, state, np.zeros(len(clocks), dtype=np.int64), clocks), state.keytimes[0].copy(), fps
 

@@ -219,6 +219,25 @@ class Verb:
             raise AdverbsError(f"adverb {bad[0]!r} must be a finite number")
         return p
 
+    def outside(self, p: np.ndarray) -> np.ndarray:
+        """How far ``p (..., A)`` lies outside the examples on each adverb, in ranges of the examples ``(..., A)``.
+
+        0 inside the box the examples span; 0.25 a quarter of that adverb's range beyond its lowest
+        or highest example. An adverb every example shares counts its distance in its own units.
+        """
+        p = np.asarray(p, dtype=float)
+        lo, hi = self.points.min(axis=0), self.points.max(axis=0)
+        span = np.where(hi > lo, hi - lo, 1.0)
+        return np.maximum(np.maximum(lo - p, p - hi), 0.0) / span
+
+    def clamp(self, p: np.ndarray, margin: float = 0.0) -> np.ndarray:
+        """``p`` moved into the examples' box, widened by ``margin`` ranges on each side."""
+        if not (np.isfinite(margin) and margin >= 0):
+            raise AdverbsError(f"clamp margin must be a number ≥ 0, got {margin}")
+        lo, hi = self.points.min(axis=0), self.points.max(axis=0)
+        span = hi - lo
+        return np.clip(np.asarray(p, dtype=float), lo - margin * span, hi + margin * span)
+
     # ----- what depends on p alone ---------------------------------------------------------------
     def weights(self, p: np.ndarray) -> np.ndarray:
         """Cardinal weights ``(..., E)`` at adverb points ``(..., A)``."""

@@ -1,0 +1,83 @@
+"""Adverb points far outside the examples: a warning, --clamp, and degenerate motions refused before any heavy work."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+from conftest import VERB_SPECS
+from test_cli import run
+
+from adverbs import AdverbsError
+from adverbs.errors import AdverbsWarning
+from adverbs.verb.planting import plant_feet
+from adverbs.verb.synthesis import LONGEST_CYCLE, WARN_BEYOND
+
+
+def test_outside_and_clamp_measure_in_ranges_of_the_examples(verbs):
+    verb, _ = verbs["cmu_walk"]
+    lo, hi = verb.points.min(axis=0), verb.points.max(axis=0)
+    span = hi - lo
+    inside = (lo + hi) / 2
+    np.testing.assert_array_equal(verb.outside(inside), [0.0, 0.0])
+    far = np.array([hi[0] + 0.5 * span[0], lo[1] - 2.0 * span[1]])
+    np.testing.assert_allclose(verb.outside(far), [0.5, 2.0], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(verb.clamp(far), [hi[0], lo[1]], rtol=0, atol=0)
+    np.testing.assert_allclose(verb.clamp(far, 0.25), [hi[0] + 0.25 * span[0], lo[1] - 0.25 * span[1]], rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(verb.clamp(inside, 0.25), inside)
+    with pytest.raises(AdverbsError, match="margin"):
+        verb.clamp(inside, -1.0)
+
+
+def test_synthesize_warns_only_far_outside(verbs):
+    verb, _ = verbs["cmu_walk"]
+    lo, hi = verb.points.min(axis=0), verb.points.max(axis=0)
+    near = hi + (WARN_BEYOND - 0.05) * (hi - lo)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", AdverbsWarning)
+        verb.synthesize(near)  # 20% past: extrapolation the verb is made for, no warning
+    far = np.array([hi[0] + 0.5 * (hi[0] - lo[0]), 0.0])
+    with pytest.warns(AdverbsWarning, match=r"speed=.* is 0.5 ranges outside the examples"):
+        verb.synthesize(far)
+
+
+@pytest.mark.parametrize("name", VERB_SPECS)
+def test_no_adverb_value_runs_away(verbs, name):
+    """±1e4 and ±1e300 on every adverb: refused with a message naming the point, or a motion of bounded length."""
+    verb, _ = verbs[name]
+    centre = verb.points.mean(axis=0)
+    for i in range(len(verb.adverbs)):
+        for value in (1e4, -1e4, 1e300, -1e300):
+            p = centre.copy()
+            p[i] = value
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", AdverbsWarning)
+                try:
+                    clip, k = verb.synthesize(p)
+                except AdverbsError as e:
+                    assert "degenerates" in str(e) and f"{verb.adverbs[i].name}={value:g}" in str(e)
+                    continue
+            assert clip.num_frames <= LONGEST_CYCLE * verb.fps + 1
+            assert np.all(np.isfinite(clip.rotations)) and np.all(np.isfinite(clip.translations))
+            if verb.constraints:
+                planted, _ = plant_feet(verb, clip, k)  # bounded work too
+                assert planted.num_frames == clip.num_frames
+
+
+def test_cli_warns_clamps_and_refuses(tmp_path):
+    from conftest import SPECS
+
+    verb = tmp_path / "walk.verb"
+    assert run("build", SPECS / "cmu_walk.toml", "-o", verb).returncode == 0
+    out = tmp_path / "x.bvh"
+    r = run("synth", verb, "--adverb", "turn=-1e4", "-o", out)
+    assert r.returncode == 1 and "degenerates" in r.stderr and "turn=-10000" in r.stderr and not out.exists()
+    assert "Traceback" not in r.stderr
+    r = run("synth", verb, "--adverb", "speed=100", "--duration", "10", "-o", out)
+    assert r.returncode == 1 and "degenerates" in r.stderr
+    r = run("synth", verb, "--adverb", "turn=-1e4", "--clamp", "-o", out)
+    assert r.returncode == 0, r.stderr
+    assert "turn=-10000 clamped to" in r.stderr and out.exists()
+    r = run("synth", verb, "--adverb", "speed=-1", "-o", out)
+    assert r.returncode == 0 and "adverbs: warning: speed=-1 is 1.7 ranges outside the examples" in r.stderr
