@@ -5,7 +5,7 @@
     adverbs build SPEC.toml -o VERB
     adverbs describe VERB [--json]
     adverbs synth VERB --adverb NAME=VALUE ... [--cycles N | --duration S] [--fps F]
-                  [--no-ik] [--clamp [MARGIN]] [--floor slope:DEGREES | FILE.npz] -o OUT.bvh
+                  [--no-ik] [--method M] [--clamp [MARGIN]] [--floor slope:DEGREES | FILE.npz] -o OUT.bvh
     adverbs evaluate VERB [--png PLOT.png] [--json]
 
 Errors in the input print one line naming the file and line and exit with status 1.
@@ -30,7 +30,9 @@ from ..motion.clip import Clip
 from ..motion.contacts import find_contacts
 from ..verb.planting import foot_drift, plant_feet
 from ..verb.store import load_verb, save_verb
+from ..verb.synthesis import check_length, render
 from ..verb.tables import Verb
+from .evaluate import METHODS, evaluate, predict
 
 
 def info(clip: Clip, path: str | Path) -> dict:
@@ -143,6 +145,10 @@ def build_parser() -> argparse.ArgumentParser:
     length.add_argument("--duration", type=_positive, help="seconds of motion")
     p.add_argument("--fps", type=_positive, help="frame rate (default: the examples')")
     p.add_argument("--no-ik", action="store_true", help="leave the feet where the verb puts them (to compare)")
+    p.add_argument(
+        "--method", default="ours", choices=METHODS,
+        help="how the examples are interpolated: ours (the verb, default) or another method to compare",
+    )  # fmt: skip
     p.add_argument(
         "--clamp", nargs="?", const=0.0, default=None, type=_non_negative, metavar="MARGIN",
         help="keep every adverb inside the examples' range (widened by MARGIN ranges, default 0)",
@@ -289,7 +295,12 @@ def _run(args: argparse.Namespace) -> None:
         if floor is not None and (args.no_ik or not verb.constraints):
             why = "--no-ik leaves the feet where the verb puts them" if args.no_ik else "the verb has no constraints"
             raise AdverbsError(f"--floor places the feet on the ground, but {why}")
-        clip, k = verb.synthesize(p, duration=args.duration, cycles=args.cycles, fps=args.fps)
+        if args.method == "ours":
+            clip, k = verb.synthesize(p, duration=args.duration, cycles=args.cycles, fps=args.fps)
+        else:
+            cp, k = predict(args.method, verb, p)
+            check_length(verb, p, k, verb.fps if args.fps is None else args.fps)
+            clip, k = render(verb, cp, k, duration=args.duration, cycles=args.cycles, fps=args.fps)
         feet = "feet not planted (--no-ik)"
         if verb.constraints and not args.no_ik:
             raw = foot_drift(verb, clip, k)
@@ -308,10 +319,9 @@ def _run(args: argparse.Namespace) -> None:
         args.output.parent.mkdir(parents=True, exist_ok=True)
         write_bvh(clip, args.output)
         values = ", ".join(f"{n}={v:g}" for n, v in zip(verb.adverb_names, p))
-        print(f"wrote {args.output}: {verb.name} at {values}; {clip.num_frames} frames, cycle {k[-1]:.3f} s; {feet}")
+        how = "" if args.method == "ours" else f" by {args.method}"
+        print(f"wrote {args.output}: {verb.name}{how} at {values}; {clip.num_frames} frames, cycle {k[-1]:.3f} s; {feet}")
     elif args.command == "evaluate":
-        from .evaluate import evaluate
-
         result = evaluate(load_verb(args.verb))
         if args.json:
             print(json.dumps(result.to_dict(), indent=2))

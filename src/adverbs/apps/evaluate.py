@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import RBFInterpolator
 
+from ..errors import AdverbsError
 from ..interp import bspline
 from ..interp.rbf import AdverbInterpolator
 from ..kinematics.fk import forward_kinematics
@@ -147,8 +148,16 @@ def _pose_positions(verb: Verb, control_points: np.ndarray) -> np.ndarray:
     return gpos[:, body]
 
 
-def _predict(method: str, verb: Verb, keep: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-    """Control points and keytimes at ``target`` from the examples ``keep`` (None: the method cannot)."""
+def predict(
+    method: str, verb: Verb, target: np.ndarray, keep: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """Control points ``(NumCP, D)`` and keytimes ``(N,)`` at ``target`` by ``method`` from the examples ``keep``.
+
+    ``keep`` defaults to every example; None is returned where the method cannot predict from so few.
+    """
+    if method not in METHODS:
+        raise AdverbsError(f"unknown method {method!r}; methods are {', '.join(METHODS)}")
+    keep = np.arange(len(verb.examples)) if keep is None else np.asarray(keep)
     pts = verb.points[keep]
     logk = np.log(np.diff(verb.keytimes_table[keep], axis=1))
     coef = verb.coefficients[keep]
@@ -193,7 +202,7 @@ def evaluate(verb: Verb) -> Evaluation:
         keep = np.array([j for j in range(e) if j != i])
         truth = _pose_positions(verb, verb.coefficients[i])
         for m in METHODS:
-            predicted = _predict(m, verb, keep, verb.points[i])
+            predicted = predict(m, verb, verb.points[i], keep)
             if predicted is None:
                 pose[m][i] = adverb[m][i] = np.nan
                 if goal is not None:
