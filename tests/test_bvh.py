@@ -21,11 +21,11 @@ def _same_motion(a, b, atol_m=1e-7, atol_q=1e-7):
     assert a.skeleton.names == b.skeleton.names
     assert np.array_equal(a.skeleton.parents, b.skeleton.parents)
     assert a.skeleton.channels == b.skeleton.channels
-    assert np.allclose(a.skeleton.offsets, b.skeleton.offsets, atol=atol_m, rtol=0)
-    assert np.allclose(a.skeleton.end_site_offsets, b.skeleton.end_site_offsets, atol=atol_m, rtol=0)
+    np.testing.assert_allclose(a.skeleton.offsets, b.skeleton.offsets, rtol=0, atol=atol_m)
+    np.testing.assert_allclose(a.skeleton.end_site_offsets, b.skeleton.end_site_offsets, rtol=0, atol=atol_m)
     assert a.num_frames == b.num_frames
     assert a.fps == pytest.approx(b.fps, rel=1e-9)
-    assert np.allclose(a.translations, b.translations, atol=atol_m, rtol=0)
+    np.testing.assert_allclose(a.translations, b.translations, rtol=0, atol=atol_m)
     # q and −q are one rotation.
     dots = np.abs(np.sum(a.rotations * b.rotations, axis=-1))
     assert np.all(1.0 - dots < atol_q)
@@ -37,7 +37,7 @@ def test_reads_and_bones_keep_their_length(path):
     skel = clip.skeleton
     assert clip.num_frames > 1 and clip.fps in (24.0, 30.0)
     assert np.all(np.isfinite(clip.rotations)) and np.all(np.isfinite(clip.translations))
-    assert np.allclose(np.linalg.norm(clip.rotations, axis=-1), 1.0, atol=1e-12)
+    np.testing.assert_allclose(np.linalg.norm(clip.rotations, axis=-1), 1.0, rtol=0, atol=1e-12)
     lengths = bone_lengths(skel.parents, clip.global_positions())  # (F, J-1)
     spread = np.ptp(lengths, axis=0)
     moved_by_motion = set(skel.ancestors(skel.body_root()))  # the root's own link to the hips is motion
@@ -78,7 +78,7 @@ def test_units_are_recorded_and_restored(tmp_path):
     text = format_bvh(cm)
     assert "OFFSET 0 -42.0304 0" in text
     explicit = read_bvh(CMU / "16_15_walk.bvh", units="m")
-    assert np.allclose(explicit.skeleton.offsets, cm.skeleton.offsets * 100)
+    np.testing.assert_allclose(explicit.skeleton.offsets, cm.skeleton.offsets * 100, rtol=0, atol=1e-12)
 
 
 def test_tabs_crlf_blank_lines_and_spacing_read_the_same():
@@ -126,7 +126,7 @@ def test_any_channel_order_round_trips(order, tmp_path):
     write_bvh(moved, out)
     again = read_bvh(out)
     assert again.skeleton.channels == tuple(channels)
-    assert np.allclose(again.global_positions(), moved.global_positions(), atol=1e-7)
+    np.testing.assert_allclose(again.global_positions(), moved.global_positions(), rtol=0, atol=1e-7)
 
 
 # ----- bad files -----------------------------------------------------------------------------

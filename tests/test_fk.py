@@ -23,13 +23,13 @@ def test_planar_chain_matches_trigonometry():
     p1 = base + l1 * np.stack([np.cos(a), np.sin(a), 0 * a], -1)
     p2 = p1 + l2 * np.stack([np.cos(a + b), np.sin(a + b), 0 * a], -1)
     p3 = p2 + l3 * np.stack([np.cos(a + b + c), np.sin(a + b + c), 0 * a], -1)
-    assert np.allclose(gpos[..., 0, :], base, atol=1e-12)
-    assert np.allclose(gpos[..., 1, :], p1, atol=1e-12)
-    assert np.allclose(gpos[..., 2, :], p2, atol=1e-12)
-    assert np.allclose(gpos[..., 3, :], p3, atol=1e-12)
+    np.testing.assert_allclose(gpos[..., 0, :], np.broadcast_to(base, gpos[..., 0, :].shape), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(gpos[..., 1, :], p1, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(gpos[..., 2, :], p2, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(gpos[..., 3, :], p3, rtol=0, atol=1e-12)
     # The end's global rotation is a rotation about Z by a + b + c.
     angle = Rotation.from_quat(grot[..., 3, :].reshape(-1, 4)).as_rotvec()[:, 2]
-    assert np.allclose(np.cos(angle), np.cos(a + b + c).reshape(-1), atol=1e-12)
+    np.testing.assert_allclose(np.cos(angle), np.cos(a + b + c).reshape(-1), rtol=0, atol=1e-12)
 
 
 def test_two_joint_chain_out_of_plane():
@@ -38,8 +38,8 @@ def test_two_joint_chain_out_of_plane():
     trans = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 0.5], [0.0, 0.0, 0.3]])
     rot = np.stack([quat.from_euler("Y", [np.pi / 2]), quat.from_euler("X", [np.pi / 2]), quat.identity()])
     gpos, _ = forward_kinematics(parents, rot, trans)
-    assert np.allclose(gpos[1], [0.5, 1.0, 0.0], atol=1e-12)
-    assert np.allclose(gpos[2], [0.5, 0.7, 0.0], atol=1e-12)
+    np.testing.assert_allclose(gpos[1], [0.5, 1.0, 0.0], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(gpos[2], [0.5, 0.7, 0.0], rtol=0, atol=1e-12)
 
 
 def _scipy_fk_from_text(path):

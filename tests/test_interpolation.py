@@ -20,12 +20,12 @@ RNG = np.random.default_rng(3)
 def test_basis_matches_scipy_and_sums_to_one(n):
     t = np.linspace(0, 1, 101)
     b = bspline.design_matrix(t, n)
-    assert np.allclose(b.sum(axis=1), 1.0)
+    np.testing.assert_allclose(b.sum(axis=1), 1.0, rtol=0, atol=1e-12)
     h = 1.0 / (n - 3)
     knots = np.arange(-3, n + 1) * h  # uniform knots running past both ends
     for k in range(n):
         ref = BSpline.basis_element(knots[k : k + 5], extrapolate=False)(t)
-        assert np.allclose(b[:, k], np.nan_to_num(ref), atol=1e-12)
+        np.testing.assert_allclose(b[:, k], np.nan_to_num(ref), rtol=0, atol=1e-12)
 
 
 def test_fit_reproduces_cubics_exactly_and_uses_four_live_points():
@@ -36,10 +36,12 @@ def test_fit_reproduces_cubics_exactly_and_uses_four_live_points():
     tt = RNG.uniform(0, 1, 50)
     idx, w = bspline.basis(tt, 9)
     assert idx.shape == (50, 4) and np.all(np.diff(idx, axis=1) == 1)
-    assert np.allclose(bspline.evaluate(coef, tt), np.stack([1 - 2 * tt + 3 * tt**2 - tt**3, 0.5 * tt**3], 1))
+    np.testing.assert_allclose(bspline.evaluate(coef, tt), np.stack([1 - 2 * tt + 3 * tt**2 - tt**3, 0.5 * tt**3], 1), rtol=0, atol=1e-12)
     v0, s0, v1, s1 = bspline.ends(coef)
-    assert np.allclose(v0, [1, 0]) and np.allclose(v1, [1, 0.5])
-    assert np.allclose(s0, [-2, 0]) and np.allclose(s1, [-2 + 6 - 3, 1.5])
+    np.testing.assert_allclose(v0, [1, 0], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(v1, [1, 0.5], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(s0, [-2, 0], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(s1, [-2 + 6 - 3, 1.5], rtol=0, atol=1e-12)
 
 
 def test_too_few_samples_for_numcp():
@@ -57,11 +59,12 @@ def test_time_warp_then_inverse_is_identity():
     k = np.concatenate([np.zeros((25, 1)), k], axis=1)  # (25, 6) increasing from 0
     clock = RNG.uniform(0, 1, (25,)) * k[:, -1]
     t = timewarp.generic_time(clock, k)
-    assert np.allclose(timewarp.clock_time(t, k), clock, atol=1e-12)
+    np.testing.assert_allclose(timewarp.clock_time(t, k), clock, rtol=0, atol=1e-12)
     g = RNG.uniform(0, 1, 25)
-    assert np.allclose(timewarp.generic_time(timewarp.clock_time(g, k), k), g, atol=1e-12)
+    np.testing.assert_allclose(timewarp.generic_time(timewarp.clock_time(g, k), k), g, rtol=0, atol=1e-12)
     # Keytime m maps to (m − 1) / (N − 1); the warp is monotone.
-    assert np.allclose(timewarp.generic_time(k, k[:, None, :]), np.linspace(0, 1, 6))
+    warped = timewarp.generic_time(k, k[:, None, :])
+    np.testing.assert_allclose(warped, np.broadcast_to(np.linspace(0, 1, 6), warped.shape), rtol=0, atol=1e-12)
     dense = timewarp.generic_time(np.linspace(0, k[0, -1], 500), k[0])
     assert np.all(np.diff(dense) > 0)
 
@@ -83,7 +86,7 @@ def _points(e=9, a=3):
 def test_profile_is_the_cubic_bspline():
     r = np.linspace(0, 3, 301)
     ref = np.where(r < 1, (4 - 6 * r**2 + 3 * r**3) / 6, np.where(r < 2, (2 - r) ** 3 / 6, 0.0))
-    assert np.allclose(bspline_profile(r), ref, atol=1e-15)
+    np.testing.assert_allclose(bspline_profile(r), ref, rtol=0, atol=1e-15)
     assert bspline_profile(np.array(0.0)) == pytest.approx(2 / 3) and bspline_profile(np.array(2.0)) == 0.0
 
 
@@ -92,9 +95,9 @@ def test_reproduces_examples_exactly_both_ways():
     values = RNG.normal(size=(9, 4, 5))
     ip = AdverbInterpolator(pts)
     coef = ip.fit(values)
-    assert np.allclose(ip.evaluate(pts, coef), values, atol=1e-10)
-    assert np.allclose(np.einsum("pe,e...->p...", ip.weights(pts), values), values, atol=1e-10)
-    assert np.allclose(ip.weights(pts), np.eye(9), atol=1e-10)
+    np.testing.assert_allclose(ip.evaluate(pts, coef), values, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(np.einsum("pe,e...->p...", ip.weights(pts), values), values, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(ip.weights(pts), np.eye(9), rtol=0, atol=1e-10)
 
 
 def test_cardinal_weights_equal_the_reference_path():
@@ -105,7 +108,7 @@ def test_cardinal_weights_equal_the_reference_path():
     p = RNG.uniform(-4, 4, size=(200, 3)) * [1.0, 30.0, 0.1]  # inside and far outside
     fast = ip.weights(p) @ values
     assert np.abs(fast - ip.evaluate(p, coef)).max() <= 1e-10
-    assert np.allclose(ip.weights(p).sum(axis=1), 1.0)
+    np.testing.assert_allclose(ip.weights(p).sum(axis=1), 1.0, rtol=0, atol=1e-12)
     one = np.stack([ip.weights_one(x) for x in p[:20]])
     assert np.abs(one - ip.weights(p[:20])).max() <= 1e-12
 
@@ -145,7 +148,7 @@ def test_moving_a_refinement_far_away_changes_nothing_elsewhere():
     assert np.abs(before.weights(near_left) @ values - after.weights(near_left) @ values).max() <= 1e-12
     # Near where it was, the verb changes; at every other example, it still reproduces them.
     assert np.abs(before.weights(pts[8]) @ values - after.weights(pts[8]) @ values).max() > 1e-3
-    assert np.allclose(after.weights(moved) @ values, values, atol=1e-10)
+    np.testing.assert_allclose(after.weights(moved) @ values, values, rtol=0, atol=1e-10)
 
 
 def test_interpolator_errors():

@@ -14,43 +14,46 @@ Q = Rotation.random(500, random_state=1).as_quat()
 
 def test_products_and_rotation_match_scipy():
     a, b = Q[:250], Q[250:]
-    assert np.allclose(
-        Rotation.from_quat(quat.mul(a, b)).as_matrix(), (Rotation.from_quat(a) * Rotation.from_quat(b)).as_matrix()
+    np.testing.assert_allclose(
+        Rotation.from_quat(quat.mul(a, b)).as_matrix(),
+        (Rotation.from_quat(a) * Rotation.from_quat(b)).as_matrix(),
+        rtol=0,
+        atol=1e-12,
     )
     v = RNG.normal(size=(250, 3))
-    assert np.allclose(quat.rotate(a, v), Rotation.from_quat(a).apply(v))
-    assert np.allclose(quat.mul(a, quat.inv(a)), quat.identity((250,)), atol=1e-12)
+    np.testing.assert_allclose(quat.rotate(a, v), Rotation.from_quat(a).apply(v), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(quat.mul(a, quat.inv(a)), quat.identity((250,)), rtol=0, atol=1e-12)
 
 
 def test_matrices_round_trip_and_match_scipy():
     m = quat.to_matrix(Q)
-    assert np.allclose(m, Rotation.from_quat(Q).as_matrix(), atol=1e-12)
+    np.testing.assert_allclose(m, Rotation.from_quat(Q).as_matrix(), rtol=0, atol=1e-12)
     back = quat.from_matrix(m)
-    assert np.allclose(np.abs(np.sum(back * Q, axis=-1)), 1.0, atol=1e-12)
+    np.testing.assert_allclose(np.abs(np.sum(back * Q, axis=-1)), 1.0, rtol=0, atol=1e-12)
     r = RNG.normal(size=(200, 3))
-    assert np.allclose(quat.rotvec_matrix(r), Rotation.from_rotvec(r).as_matrix(), atol=1e-12)
-    assert np.allclose(quat.rotvec_matrix(np.zeros(3)), np.eye(3))
+    np.testing.assert_allclose(quat.rotvec_matrix(r), Rotation.from_rotvec(r).as_matrix(), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(quat.rotvec_matrix(np.zeros(3)), np.eye(3), rtol=0, atol=1e-15)
 
 
 def test_log_exp_and_slerp():
     r = RNG.normal(size=(200, 3))
-    assert np.allclose(quat.log(quat.exp(r)), r, atol=1e-12)  # angles past π too: the sign is kept
+    np.testing.assert_allclose(quat.log(quat.exp(r)), r, rtol=0, atol=1e-12)  # angles past π too: the sign is kept
     a, b = Q[:100], Q[100:200]
-    assert np.allclose(np.abs(np.sum(quat.slerp(a, b, np.zeros(100)) * a, -1)), 1.0)
-    assert np.allclose(np.abs(np.sum(quat.slerp(a, b, np.ones(100)) * b, -1)), 1.0)
+    np.testing.assert_allclose(np.abs(np.sum(quat.slerp(a, b, np.zeros(100)) * a, -1)), 1.0, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(np.abs(np.sum(quat.slerp(a, b, np.ones(100)) * b, -1)), 1.0, rtol=0, atol=1e-12)
     half = quat.slerp(a, b, np.full(100, 0.5))
     da = np.abs(np.sum(half * a, -1))
     db = np.abs(np.sum(half * b, -1))
-    assert np.allclose(da, db)  # halfway: equally far from both ends
+    np.testing.assert_allclose(da, db, rtol=0, atol=1e-12)  # halfway: equally far from both ends
     # A quarter of the way: a quarter of the angle (where normalised lerp would not be).
     total = 2 * np.arccos(np.clip(np.abs(np.sum(a * b, -1)), 0, 1))
     quarter = quat.slerp(a, b, np.full(100, 0.25))
-    assert np.allclose(2 * np.arccos(np.clip(np.abs(np.sum(a * quarter, -1)), 0, 1)), 0.25 * total, atol=1e-9)
+    np.testing.assert_allclose(2 * np.arccos(np.clip(np.abs(np.sum(a * quarter, -1)), 0, 1)), 0.25 * total, rtol=0, atol=1e-9)
 
 
 def test_tilt_turns_up_onto_the_normal():
     n = RNG.normal(size=(100, 3))
     n[:, 1] = np.abs(n[:, 1]) + 0.5
     n /= np.linalg.norm(n, axis=-1, keepdims=True)
-    assert np.allclose(tilt(n) @ np.array([0.0, 1.0, 0.0]), n, atol=1e-12)
-    assert np.allclose(tilt(np.array([0.0, 1.0, 0.0])), np.eye(3))
+    np.testing.assert_allclose(tilt(n) @ np.array([0.0, 1.0, 0.0]), n, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(tilt(np.array([0.0, 1.0, 0.0])), np.eye(3), rtol=0, atol=1e-15)
