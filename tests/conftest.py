@@ -2,6 +2,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from adverbs import read_bvh
@@ -13,6 +14,12 @@ BANDAI = DATA / "bandai"
 REACTIDLE = DATA / "reactidle"
 # One clip of each source, for tests that need variety more than volume.
 ONE_PER_SOURCE = [CMU / "16_15_walk.bvh", BANDAI / "dataset-1_walk_normal_001.bvh", REACTIDLE / "idle_002_genuine.bvh"]
+
+
+def aligned(q, ref):
+    """``q`` with each quaternion's sign flipped to match ``ref`` (``q`` and ``−q`` are one rotation), so that
+    components can be compared with an absolute tolerance: ``1 − |q·ref|`` is quadratic in the angle."""
+    return np.where(np.sum(q * ref, axis=-1, keepdims=True) < 0, -q, q)
 
 
 def ids(paths):

@@ -78,7 +78,7 @@ def test_synth_plants_feet_by_default_on_any_floor(tmp_path):
     r = run(*args, "--no-ik", "-o", tmp_path / "raw.bvh")
     assert r.returncode == 0 and "--no-ik" in r.stdout
     ik, raw = read_bvh(tmp_path / "ik.bvh"), read_bvh(tmp_path / "raw.bvh")
-    assert np.abs(ik.global_positions() - raw.global_positions()).max() > 1e-3
+    assert np.abs(ik.global_positions() - raw.global_positions()).max() > 1e-2  # IK moves some joint over 1 cm
     r = run(*args, "--floor", "slope:10", "-o", tmp_path / "up.bvh")
     assert r.returncode == 0, r.stderr
     up = read_bvh(tmp_path / "up.bvh").global_positions()[:, 1]  # Hips

@@ -36,7 +36,9 @@ def test_fit_reproduces_cubics_exactly_and_uses_four_live_points():
     tt = RNG.uniform(0, 1, 50)
     idx, w = bspline.basis(tt, 9)
     assert idx.shape == (50, 4) and np.all(np.diff(idx, axis=1) == 1)
-    np.testing.assert_allclose(bspline.evaluate(coef, tt), np.stack([1 - 2 * tt + 3 * tt**2 - tt**3, 0.5 * tt**3], 1), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(
+        bspline.evaluate(coef, tt), np.stack([1 - 2 * tt + 3 * tt**2 - tt**3, 0.5 * tt**3], 1), rtol=0, atol=1e-12
+    )
     v0, s0, v1, s1 = bspline.ends(coef)
     np.testing.assert_allclose(v0, [1, 0], rtol=0, atol=1e-12)
     np.testing.assert_allclose(v1, [1, 0.5], rtol=0, atol=1e-12)
@@ -87,7 +89,10 @@ def test_profile_is_the_cubic_bspline():
     r = np.linspace(0, 3, 301)
     ref = np.where(r < 1, (4 - 6 * r**2 + 3 * r**3) / 6, np.where(r < 2, (2 - r) ** 3 / 6, 0.0))
     np.testing.assert_allclose(bspline_profile(r), ref, rtol=0, atol=1e-15)
-    assert bspline_profile(np.array(0.0)) == pytest.approx(2 / 3) and bspline_profile(np.array(2.0)) == 0.0
+    assert (
+        bspline_profile(np.array(0.0)) == pytest.approx(2 / 3, rel=0, abs=1e-15)
+        and bspline_profile(np.array(2.0)) == 0.0
+    )
 
 
 def test_reproduces_examples_exactly_both_ways():

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import aligned
 
 from adverbs import AdverbsError, ik
 from adverbs.verb.constraints import Constraint, phases
@@ -13,6 +14,7 @@ from adverbs.kinematics.floor import FlatFloor, FunctionFloor, HeightMapFloor, S
 from adverbs.verb.planting import effector_joints, foot_drift, plant_feet, planted_drift
 
 WALKS = ["cmu_walk", "bandai_styled_walk"]
+
 
 
 def _points(verb):
@@ -68,7 +70,8 @@ def test_ik_changes_only_the_leg_chains_and_root_height(verbs, name):
     allowed = set(chains.upper) | set(chains.middle) | set(chains.end)
     others = [j for j in range(verb.skeleton.num_joints) if j not in allowed]
     assert np.array_equal(planted.rotations[:, others], clip.rotations[:, others])
-    assert np.abs(planted.rotations[:, sorted(allowed)] - clip.rotations[:, sorted(allowed)]).max() > 1e-6
+    legs = sorted(allowed)
+    assert np.abs(aligned(planted.rotations[:, legs], clip.rotations[:, legs]) - clip.rotations[:, legs]).max() > 1e-2
     moved = planted.translations != clip.translations
     pelvis = chains.above[-1]  # the joint that carries the legs: only its height changes
     assert not np.delete(moved, pelvis, axis=1).any() and not moved[:, pelvis, [0, 2]].any()
@@ -153,12 +156,12 @@ def test_compiled_solver_equals_the_reference_and_batch_equals_single(verbs):
     tilts = np.broadcast_to(np.eye(3), targets.shape[:-1] + (3, 3))
     fast = ik.solve(chains, clip.rotations, clip.translations, targets, tilts)
     slow = ik.solve_reference(chains, clip.rotations, clip.translations, targets, tilts)
-    assert np.abs(np.abs(np.sum(fast.rotations * slow.rotations, axis=-1)) - 1).max() <= 1e-12
+    np.testing.assert_allclose(aligned(fast.rotations, slow.rotations), slow.rotations, rtol=0, atol=1e-12)
     assert np.abs(fast.translations - slow.translations).max() <= 1e-12
     assert fast.residual.max() < 1e-3 and not fast.unreachable.any()  # reachable targets are reached
     for f in (0, 7, clip.num_frames - 1):
         one = ik.solve(chains, clip.rotations[f], clip.translations[f], targets[f], tilts[f])
-        assert np.abs(np.abs(np.sum(one.rotations * fast.rotations[f], axis=-1)) - 1).max() <= 1e-12
+        np.testing.assert_allclose(aligned(one.rotations, fast.rotations[f]), fast.rotations[f], rtol=0, atol=1e-12)
 
 
 def test_floors(tmp_path):
