@@ -30,7 +30,7 @@ from ..motion.clip import Clip
 from ..motion.contacts import find_contacts
 from ..verb.planting import foot_drift, plant_feet
 from ..verb.store import load_verb, save_verb
-from ..verb.synthesis import check_length, render
+from ..verb.synthesis import render
 from ..verb.tables import Verb
 from .evaluate import METHODS, evaluate, predict
 
@@ -96,14 +96,23 @@ def _frame_range(text: str) -> tuple[int | None, int | None]:
         raise argparse.ArgumentTypeError(f"--frames takes whole frame numbers A:B, got {text!r}") from None
 
 
-def _positive(text: str) -> float:
+def _number(text: str, zero: bool) -> float:
+    """A finite number from an argument, above 0 (or at least 0 with ``zero``)."""
     try:
         value = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not (np.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
+    if not (np.isfinite(value) and (value >= 0 if zero else value > 0)):
+        raise argparse.ArgumentTypeError(f"expected a {'number ≥ 0' if zero else 'positive number'}, got {text!r}")
     return value
+
+
+def _positive(text: str) -> float:
+    return _number(text, zero=False)
+
+
+def _non_negative(text: str) -> float:
+    return _number(text, zero=True)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -164,16 +173,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--png", type=Path, help="also plot to this PNG file")
     p.add_argument("--json", action="store_true", help="print JSON instead of tables")
     return parser
-
-
-def _non_negative(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not (np.isfinite(value) and value >= 0):
-        raise argparse.ArgumentTypeError(f"expected a number ≥ 0, got {text!r}")
-    return value
 
 
 def _assignment(text: str) -> tuple[str, float]:
@@ -299,8 +298,7 @@ def _run(args: argparse.Namespace) -> None:
             clip, k = verb.synthesize(p, duration=args.duration, cycles=args.cycles, fps=args.fps)
         else:
             cp, k = predict(args.method, verb, p)
-            check_length(verb, p, k, verb.fps if args.fps is None else args.fps)
-            clip, k = render(verb, cp, k, duration=args.duration, cycles=args.cycles, fps=args.fps)
+            clip, k = render(verb, cp, k, duration=args.duration, cycles=args.cycles, fps=args.fps, point=p)
         feet = "feet not planted (--no-ik)"
         if verb.constraints and not args.no_ik:
             raw = foot_drift(verb, clip, k)

@@ -148,13 +148,29 @@ def run_kernel(
     rows: np.ndarray,
     times: np.ndarray,
     kind: int,
-) -> tuple[np.ndarray, np.ndarray]:
-    """DOFs ``(Q, D)`` and cycle indices ``(Q,)`` from the compiled kernel (see :mod:`._sampling_kernel` for the arguments)."""
+    cycles: np.ndarray | None = None,
+) -> np.ndarray:
+    """DOFs ``(Q, D)`` from the compiled kernel (see :mod:`._sampling_kernel` for the arguments).
+
+    Each query's cycle index is written into ``cycles (Q,)`` when it is given.
+    """
     rows = np.ascontiguousarray(rows, dtype=np.int64)
     out = np.empty((len(rows), segments.shape[2]))
-    cycles = np.empty(len(rows), dtype=np.int64)
+    cycles = np.empty(len(rows), dtype=np.int64) if cycles is None else cycles
     sample_batch(segments, weights, keytimes, seam, rows, np.ascontiguousarray(times, dtype=float), kind, SEAM_BLEND, out, cycles)
-    return out, cycles
+    return out
+
+
+def _sample_state(verb: Verb, points: np.ndarray, clocks: np.ndarray, state: SamplingState | None) -> tuple[np.ndarray, SamplingState]:
+    """What :func:`sample` and :func:`pose` share once their arguments are checked: points ``(C, A)``, clocks ``(C,)``."""
+    if state is None:
+        state = SamplingState.new(verb, len(points))
+    state.check(verb, len(points))
+    state.update(verb, points)
+    out = run_kernel(
+        verb.segments, state.weights, state.keytimes, state.seam, np.arange(len(points)), clocks, mode(verb), state.cycle
+    )
+    return out, state
 
 
 def sample(
@@ -178,16 +194,7 @@ def sample(
         raise AdverbsError(f"verb {verb.name!r}: {len(p)} adverb points but {len(clocks)} clock times")
     if not np.isfinite(clocks).all():
         raise AdverbsError("clock time must be a finite number of seconds")
-    if state is None:
-        state = SamplingState.new(verb, len(p))
-    state.check(verb, len(p))
-    state.update(verb, p)
-    out = np.empty((len(p), verb.num_dofs))
-    sample_batch(
-        verb.segments, state.weights, state.keytimes, state.seam, _rows(len(p)), clocks, mode(verb), SEAM_BLEND,
-        out, state.cycle,
-    )  # fmt: skip
-    return out, state
+    return _sample_state(verb, p, clocks, state)
 
 
 def pose(verb: Verb, p: np.ndarray, clock: float, state: SamplingState | None = None) -> np.ndarray:
@@ -202,30 +209,7 @@ def pose(verb: Verb, p: np.ndarray, clock: float, state: SamplingState | None = 
     p = np.asarray(p, dtype=float)
     if p.shape != (len(verb.adverbs),):
         raise AdverbsError(f"verb {verb.name!r} takes {len(verb.adverbs)} adverbs, got shape {p.shape}")
-    if state is None:
-        state = SamplingState.new(verb, 1)
-    state.check(verb, 1)
-    state.update(verb, p[None])
-    out = np.empty((1, verb.num_dofs))
-    sample_batch(
-        verb.segments, state.weights, state.keytimes, state.seam, _rows(1), np.array([clock]), mode(verb), SEAM_BLEND,
-        out, state.cycle,
-    )  # fmt: skip
-    return out[0]
-
-
-_ROWS: dict[int, np.ndarray] = {}
-
-
-def _rows(c: int) -> np.ndarray:
-    """``arange(c)`` as int64, kept for the creature counts in use (read-only)."""
-    rows = _ROWS.get(c)
-    if rows is None:
-        rows = np.arange(c, dtype=np.int64)
-        rows.setflags(write=False)
-        if len(_ROWS) < 64:
-            _ROWS[c] = rows
-    return rows
+    return _sample_state(verb, p[None], np.array([clock]), state)[0][0]
 
 
 def clocks_dofs(verb: Verb, state: SamplingState, rows: np.ndarray, clocks: np.ndarray) -> np.ndarray:
@@ -234,7 +218,7 @@ def clocks_dofs(verb: Verb, state: SamplingState, rows: np.ndarray, clocks: np.n
     The kernel's many-queries form, for one creature at many times (a whole clip) or any mix; the
     state's cache is read, not changed (its ``cycle`` is left as it was).
     """
-    return run_kernel(verb.segments, state.weights, state.keytimes, state.seam, rows, clocks, mode(verb))[0]
+    return run_kernel(verb.segments, state.weights, state.keytimes, state.seam, rows, clocks, mode(verb))
 
 
 def dofs(verb: Verb, p: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -263,7 +247,7 @@ def dofs(verb: Verb, p: np.ndarray, t: np.ndarray) -> np.ndarray:
             p[a : a + CHUNK], rows, *verb.interpolator.kernel_tables, no_keytimes, no_seam,
             w, np.empty((len(rows), 1)), np.empty((len(rows), 0)),
         )  # fmt: skip
-        out[a : a + CHUNK] = run_kernel(verb.segments, w, no_keytimes, no_seam, rows, t[a : a + CHUNK], GENERIC)[0]
+        out[a : a + CHUNK] = run_kernel(verb.segments, w, no_keytimes, no_seam, rows, t[a : a + CHUNK], GENERIC)
     return out
 
 

@@ -28,15 +28,33 @@ WARN_BEYOND = 0.25  # ranges of the examples: farther out than this, synthesize 
 
 
 def frame_clocks(
-    verb: Verb, length: float, duration: float | None = None, cycles: float | None = None, fps: float | None = None
+    verb: Verb,
+    length: float,
+    duration: float | None = None,
+    cycles: float | None = None,
+    fps: float | None = None,
+    point: np.ndarray | None = None,
 ) -> tuple[np.ndarray, float]:
     """Clock times ``(F,)`` of the frames of a motion whose cycle (or whole motion) lasts ``length`` seconds, and the fps.
 
-    ``cycles`` (default 1) repeats a cyclic verb; ``duration`` in seconds overrides it.
+    ``cycles`` (default 1) repeats a cyclic verb; ``duration`` in seconds overrides it. Refused
+    before any heavy work: a degenerate ``length`` — far enough outside the examples the
+    interpolated keytimes run away, to a cycle shorter than two frames or longer than
+    :data:`LONGEST_CYCLE` — named with the adverb ``point`` it came from.
     """
     fps = verb.fps if fps is None else float(fps)
     if not (np.isfinite(fps) and fps > 0):
         raise AdverbsError(f"fps must be a positive number, got {fps}")
+    if not (np.isfinite(length) and 2.0 / fps <= length <= LONGEST_CYCLE):
+        at = "" if point is None else " at " + ", ".join(f"{n}={v:g}" for n, v in zip(verb.adverb_names, point))
+        lo, hi = verb.points.min(axis=0), verb.points.max(axis=0)
+        ranges = ", ".join(f"{n} {a:g} .. {b:g}" for n, a, b in zip(verb.adverb_names, lo, hi))
+        what = "cycle" if verb.cyclic else "motion"
+        raise AdverbsError(
+            f"verb {verb.name!r}{at}: the motion degenerates there (one {what} would last {length:.3g} s; "
+            f"it must last from two frames, {2.0 / fps:.3g} s, to {LONGEST_CYCLE:g} s). The examples span {ranges}: "
+            "ask for adverbs nearer them (adverbs synth --clamp keeps them inside)"
+        )
     if cycles is not None and not verb.cyclic and float(cycles) != 1.0:
         raise AdverbsError(f"verb {verb.name!r} is a one-shot motion: it plays once (give a duration instead of cycles)")
     if duration is None:
@@ -49,25 +67,6 @@ def frame_clocks(
             f"{duration:g} s at {fps:g} fps is {frames} frames; synthesize between 2 and {MAX_FRAMES:,} at a time"
         )
     return np.arange(frames) / fps, fps
-
-
-def check_length(verb: Verb, p: np.ndarray, keytimes: np.ndarray, fps: float) -> None:
-    """Refuse, before any heavy work, an adverb point whose motion has degenerated.
-
-    Far enough outside the examples the interpolated keytimes run away: a cycle (or one-shot
-    motion) shorter than two frames, or longer than :data:`LONGEST_CYCLE` seconds.
-    """
-    length = float(keytimes[-1])
-    if np.isfinite(length) and 2.0 / fps <= length <= LONGEST_CYCLE:
-        return
-    values = ", ".join(f"{n}={v:g}" for n, v in zip(verb.adverb_names, p))
-    ranges = ", ".join(f"{n} {lo:g} .. {hi:g}" for n, lo, hi in zip(verb.adverb_names, verb.points.min(0), verb.points.max(0)))
-    what = "cycle" if verb.cyclic else "motion"
-    raise AdverbsError(
-        f"verb {verb.name!r} at {values}: the motion degenerates there (one {what} would last {length:.3g} s; "
-        f"it must last from two frames, {2.0 / fps:.3g} s, to {LONGEST_CYCLE:g} s). The examples span {ranges}: "
-        "ask for adverbs nearer them (adverbs synth --clamp keeps them inside)"
-    )
 
 
 def synthesize_dofs(
@@ -91,11 +90,7 @@ def synthesize_dofs(
         )
     state = sampling.SamplingState.new(verb, 1)
     state.update(verb, p[None])
-    rate = verb.fps if fps is None else float(fps)
-    if not (np.isfinite(rate) and rate > 0):
-        raise AdverbsError(f"fps must be a positive number, got {fps}")
-    check_length(verb, p, state.keytimes[0], rate)
-    clocks, fps = frame_clocks(verb, state.keytimes[0, -1], duration, cycles, fps)
+    clocks, fps = frame_clocks(verb, state.keytimes[0, -1], duration, cycles, fps, p)
     return sampling.clocks_dofs(verb, state, np.zeros(len(clocks), dtype=np.int64), clocks), state.keytimes[0].copy(), fps
 
 
@@ -124,19 +119,21 @@ def render(
     cycles: float | None = None,
     fps: float | None = None,
     start: Sequence[float] = (0.0, 0.0, 0.0),
+    point: np.ndarray | None = None,
 ) -> tuple[Clip, np.ndarray]:
     """Motion from any control points ``(NumCP, D)`` and keytimes ``(N,)`` on ``verb``'s encoding.
 
     For curves that are not the verb's own interpolation (other interpolators, in ``evaluate``):
-    the same kernel reading a one-example table, ``w = [1]``.
+    the same kernel reading a one-example table, ``w = [1]``. ``point``, the adverb point they were
+    predicted at, is named in errors.
     """
     cp = np.asarray(control_points, dtype=float)
     k = np.asarray(keytimes, dtype=float)
     if cp.shape != (verb.num_cp, verb.num_dofs) or k.shape != (verb.num_keytimes,):
         raise AdverbsError(f"render: control points {cp.shape} and keytimes {k.shape} do not fit verb {verb.name!r}")
     v0, _, v1, _ = bspline.ends(cp)
-    clocks, fps = frame_clocks(verb, k[-1], duration, cycles, fps)
-    dofs, _ = sampling.run_kernel(
+    clocks, fps = frame_clocks(verb, k[-1], duration, cycles, fps, point)
+    dofs = sampling.run_kernel(
         np.ascontiguousarray(cp[:, None, :] / 6.0), np.ones((1, 1)), k[None], (v1 - v0)[None],
         np.zeros(len(clocks)), clocks, sampling.mode(verb),
     )  # fmt: skip
