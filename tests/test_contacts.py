@@ -10,7 +10,7 @@ from conftest import BANDAI, CMU, REACTIDLE, ids
 
 from adverbs import AdverbsError, read_bvh
 from adverbs.motion.contacts import find_contacts, foot_points
-from adverbs.motion.cutting import cut_steps
+from adverbs.motion.cutting import cut_steps, most_turning
 
 WALKS = sorted(CMU.glob("16_*walk*.bvh")) + sorted(BANDAI.glob("dataset-*_walk*.bvh"))
 
@@ -90,3 +90,17 @@ def test_feet_can_be_named_by_hand(cmu_walk):
     assert np.array_equal(auto.planted, manual.planted)
     heel_only = find_contacts(cmu_walk, feet=[skel.foot("lfoot")])
     assert heel_only.planted.shape == (cmu_walk.num_frames, 1)
+
+
+@pytest.mark.parametrize(
+    ("name", "expected"),
+    [("16_52_run_90-degree_left_turn.bvh", [22, 30, 38]), ("16_43_runandjog_90-degree_right_turn.bvh", [19, 25, 37])],
+)
+def test_most_turning_skips_strikes_that_do_not_alternate(name, expected):
+    """A sharp turn can hide a pivoting foot's contact (it slides): two strikes of one foot in a row.
+    The cycles there are skipped, not the rest of the clip."""
+    clip = read_bvh(CMU / name)
+    contacts = find_contacts(clip)
+    left = contacts.strikes("left")
+    assert not any(right in range(left[0], left[1]) for right in contacts.strikes("right"))  # L, L: no R between
+    assert most_turning(clip, "left", 2, contacts).tolist() == expected

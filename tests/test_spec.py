@@ -159,10 +159,21 @@ def test_unknown_fields_and_bad_values(tmp_path):
 
 def test_the_shipped_specs_parse_and_name_shipped_files():
     paths = sorted(SPECS.glob("*.toml"))
-    assert len(paths) == 3
+    assert {p.stem for p in paths} == {"cmu_walk", "cmu_run", "bandai_styled_walk", "bandai_run", "bandai_reach"}
     for path in paths:
         spec = load_spec(path)
         assert all((path.parent / ex["file"]).exists() for ex in spec["examples"]), path
+
+
+def test_smoothing_and_spacing_mistakes(tmp_path):
+    for key, value in [("smoothing", "-1"), ("smoothing", '"lots"'), ("shrinkage", "nan"), ("keytime_spacing", '"odd"')]:
+        path = spec(
+            tmp_path,
+            example("a", WALK, "adverbs = { mood = 0 }"),
+            example("b", FAST, "adverbs = { mood = 1 }"),
+            head=HEAD.replace('name = "test-walk"', f'name = "test-walk"\n{key} = {value}'),
+        )
+        fails(path, None, key, "must be")
 
 
 def test_constraint_mistakes(tmp_path):

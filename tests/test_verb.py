@@ -8,13 +8,14 @@ import zipfile
 
 import numpy as np
 import pytest
-from conftest import VERB_SPECS
+from conftest import RUN_SPECS, VERB_SPECS
 
 from adverbs import AdverbsError
 from adverbs.apps.evaluate import _pose_positions, obedience
 from adverbs.verb.measures import measure
 from adverbs.verb import Verb, build_verb, dofs_reference, load_verb, save_verb
 from adverbs.verb.store import VERSION
+from adverbs.interp import timewarp
 
 
 def _body(verb):
@@ -33,9 +34,9 @@ def test_the_three_verbs_are_what_their_specs_say(verbs):
     assert np.ptp(cmu.points[:, 1]) > 100 and np.ptp(styled.points[:, 2]) > 100
 
 
-@pytest.mark.parametrize("name", VERB_SPECS)
-def test_reproduces_every_example(verbs, name):
-    verb, examples = verbs[name]
+@pytest.mark.parametrize("name", VERB_SPECS + RUN_SPECS)
+def test_reproduces_every_example(verbs, run_verbs, name):
+    verb, examples = verbs[name] if name in verbs else run_verbs[name]
     body = _body(verb)
     for i, ex in enumerate(examples):
         # The interpolated control points and keytimes at p_i are the example's own.
@@ -46,7 +47,7 @@ def test_reproduces_every_example(verbs, name):
         assert clip.num_frames == ex.clip.num_frames
         err = np.linalg.norm(clip.global_positions()[:, body] - ex.clip.global_positions()[:, body], axis=-1).max()
         assert err <= verb.examples[i].fit_error + 1e-6
-        assert verb.examples[i].fit_error < 0.05  # and that error is a few centimetres at most
+        assert verb.examples[i].fit_error < 0.05, ex.name  # and that error is a few centimetres at most
 
 
 @pytest.mark.parametrize("name", VERB_SPECS)
@@ -60,7 +61,7 @@ def test_batch_fast_path_and_reference_agree(verbs, name):
     reference = dofs_reference(verb, p, t)
     assert np.abs(batch - reference).max() <= 1e-10
     for k in range(40):
-        clock = float(np.interp(t[k], np.linspace(0, 1, verb.num_keytimes), verb.keytimes(p[k])))
+        clock = float(timewarp.clock_time(t[k], verb.keytimes(p[k]), verb.generic_keytimes))
         assert np.abs(verb.pose(p[k], clock) - batch[k]).max() <= 1e-10
 
 
@@ -116,15 +117,19 @@ def test_moving_a_refinement_far_away_leaves_the_rest(verbs):
             a = _pose_positions(before, before.control_points(p))
             b = _pose_positions(after, after.control_points(p))
             change = np.linalg.norm(a - b, axis=-1).max()
-            assert change <= 0.005  # under the B-spline fit error: only the radial solve couples them
+            # Under the B-spline fit error: only the radial solve couples them. (5 mm before the turn
+            # rates were read truly; the wider turn range chains the supports more: 8.9 mm measured.)
+            assert change <= 0.010
             changes.append(change)
             checked += 1
     assert checked >= 10 and np.median(changes) <= 0.001
 
 
-@pytest.mark.parametrize("name", VERB_SPECS)
-def test_adverbs_are_obeyed_at_between_and_past_the_examples(verbs, name):
-    verb, _ = verbs[name]
+# The reach's adverbs are one goal in metres: tests/test_reach.py checks the hand's distance from it
+# (its x spans only 5 cm, so a per-axis percentage of range would count millimetres as failures).
+@pytest.mark.parametrize("name", [n for n in VERB_SPECS if n != "bandai_reach"] + RUN_SPECS)
+def test_adverbs_are_obeyed_at_between_and_past_the_examples(verbs, run_verbs, name):
+    verb, _ = verbs[name] if name in verbs else run_verbs[name]
     result = obedience(verb)
     assert set(result) == {"at examples", "between", "25% past"}
     assert np.all(result["at examples"] <= 5.0), result

@@ -7,6 +7,7 @@
     adverbs synth VERB --adverb NAME=VALUE ... [--cycles N | --duration S] [--fps F]
                   [--no-ik] [--method M] [--clamp [MARGIN]] [--floor slope:DEGREES | FILE.npz] -o OUT.bvh
     adverbs evaluate VERB [--png PLOT.png] [--json]
+    adverbs heldout [--data DIR]
 
 Errors in the input print one line naming the file and line and exit with status 1.
 """
@@ -32,7 +33,7 @@ from ..verb.planting import foot_drift, plant_feet
 from ..verb.store import load_verb, save_verb
 from ..verb.synthesis import render
 from ..verb.tables import Verb
-from .evaluate import METHODS, evaluate, predict
+from .evaluate import DATA, METHODS, evaluate, held_out, predict
 
 
 def info(clip: Clip, path: str | Path) -> dict:
@@ -172,6 +173,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("verb", type=Path)
     p.add_argument("--png", type=Path, help="also plot to this PNG file")
     p.add_argument("--json", action="store_true", help="print JSON instead of tables")
+
+    p = sub.add_parser("heldout", help="predict held-out takes of the Bandai dataset-2 classes from the others")
+    p.add_argument("--data", type=Path, default=DATA, help="folder of the Bandai BVH files (default: the shipped ones)")
     return parser
 
 
@@ -215,6 +219,7 @@ def describe(verb: Verb) -> dict:
                 "source": x.source,
                 "part": x.part,
                 "fit_error_mm": round(1000.0 * x.fit_error, 3),
+                "fine_error_mm": round(1000.0 * x.fine_error, 3),
             }
             for i, x in enumerate(verb.examples)
         ],
@@ -240,7 +245,8 @@ def _print_describe(d: dict) -> None:
         values = ", ".join(f"{k}={v:.3f}" for k, v in x["adverbs"].items())
         keys = ", ".join(f"{k:.3f}" for k in x["keytimes"])
         print(f"    {x['name']:<42} {values}")
-        print(f"      {x['source']} ({x['part']}); keytimes {keys} s; fit error {x['fit_error_mm']:.1f} mm")
+        print(f"      {x['source']} ({x['part']}); keytimes {keys} s; fit error {x['fit_error_mm']:.1f} mm "
+              f"(pose between frames {x['fine_error_mm']:.1f} mm)")
 
 
 def _run(args: argparse.Namespace) -> None:
@@ -319,6 +325,8 @@ def _run(args: argparse.Namespace) -> None:
         values = ", ".join(f"{n}={v:g}" for n, v in zip(verb.adverb_names, p))
         how = "" if args.method == "ours" else f" by {args.method}"
         print(f"wrote {args.output}: {verb.name}{how} at {values}; {clip.num_frames} frames, cycle {k[-1]:.3f} s; {feet}")
+    elif args.command == "heldout":
+        print(held_out(data=args.data).table())
     elif args.command == "evaluate":
         result = evaluate(load_verb(args.verb))
         if args.json:

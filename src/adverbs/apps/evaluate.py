@@ -12,8 +12,14 @@ keytimes at its adverb point, and the prediction is compared with it:
 
 Methods: ``nearest`` example; ``linear`` (the least-squares hyperplane alone); ``idw`` (inverse
 distance weighting, power 2); ``scipy-rbf`` (``scipy.interpolate.RBFInterpolator``, thin-plate spline,
-degree 1); ``ours`` (linear + cubic B-spline radial bases, eqs. 3–4). All work in the same scaled
-adverb coordinates and interpolate log keytime intervals.
+degree 1); ``ours`` (linear + cubic B-spline radial bases, eqs. 3–4, with the verb's own smoothing
+rule: exact by default); ``ours-auto`` (the same, its smoothing and slope shrinkage chosen by
+leave-one-out among the examples it is given, see :mod:`adverbs.interp.rbf`). All work in the same
+scaled adverb coordinates and interpolate log keytime intervals.
+
+Held-out takes (:func:`held_out`): for each class of Bandai Namco dataset-2 takes (straight walk, walk
+turning left, turning right, run, reach), the odd takes build the verb and the even takes are
+predicted at their measured adverb points; the same pose and adverb errors, medians over the test takes.
 
 Planted feet: at the same points, two cycles synthesized with and without the constraints enforced;
 the drift of each contact phase (see :func:`adverbs.verb.planting.planted_drift`).
@@ -25,7 +31,9 @@ measured; the largest error per adverb as a percentage of the examples' range.
 
 from __future__ import annotations
 
+import tempfile
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 from scipy.interpolate import RBFInterpolator
@@ -34,12 +42,13 @@ from ..errors import AdverbsError
 from ..interp import bspline
 from ..interp.rbf import AdverbInterpolator
 from ..kinematics.fk import forward_kinematics
+from ..verb.fit import build_from_spec
 from ..verb.measures import measure_all
 from ..verb.planting import foot_drift, plant_feet
 from ..verb.synthesis import render
 from ..verb.tables import Verb
 
-METHODS = ("nearest", "linear", "idw", "scipy-rbf", "ours")
+METHODS = ("nearest", "linear", "idw", "scipy-rbf", "ours", "ours-auto")
 SAMPLES = 60
 
 
@@ -177,10 +186,12 @@ def predict(
         linear = np.array([not verb.examples[j].refine for j in keep])
         if len(keep) < 2 or not linear.any():  # nothing left to interpolate between
             return None
-        interp = AdverbInterpolator(pts, linear=linear)
         if method == "linear":
-            pred = interp.linear_weights(target) @ values
+            pred = AdverbInterpolator(pts, linear=linear).linear_weights(target) @ values
         else:
+            own = verb.interpolator
+            rules = ("auto", "auto") if method == "ours-auto" else (own.smoothing_rule, own.shrinkage_rule)
+            interp = AdverbInterpolator(pts, linear=linear, smoothing=rules[0], shrinkage=rules[1], values=values)
             pred = interp.weights(target) @ values
     n = coef.shape[1] * coef.shape[2]
     cp = pred[:n].reshape(coef.shape[1:])
@@ -192,31 +203,15 @@ def evaluate(verb: Verb) -> Evaluation:
     """Leave-one-out comparison and obedience for ``verb`` (see the module docstring)."""
     e = len(verb.examples)
     measured = _measured(verb)
-    ranges = np.ptp(verb.points, axis=0)
-    ranges = np.where(ranges > 0, ranges, 1.0)
     goal_axes = [i for i in measured if verb.adverbs[i].measure["kind"] == "joint_position"]
     pose = {m: np.zeros(e) for m in METHODS}
     adverb = {m: np.zeros(e) for m in METHODS}
     goal = {m: np.zeros(e) for m in METHODS} if goal_axes else None
     for i in range(e):
-        keep = np.array([j for j in range(e) if j != i])
-        truth = _pose_positions(verb, verb.coefficients[i])
-        for m in METHODS:
-            predicted = predict(m, verb, verb.points[i], keep)
-            if predicted is None:
-                pose[m][i] = adverb[m][i] = np.nan
-                if goal is not None:
-                    goal[m][i] = np.nan
-                continue
-            cp, k = predicted
-            pose[m][i] = 1000.0 * np.mean(np.linalg.norm(_pose_positions(verb, cp) - truth, axis=-1))
-            if measured:
-                got = measure_motion(verb, cp, k)
-                err = (got - verb.points[i, measured]) / ranges[measured]
-                adverb[m][i] = 100.0 * np.mean(np.abs(err))
-                if goal is not None:
-                    sel = [measured.index(a) for a in goal_axes]
-                    goal[m][i] = 1000.0 * np.linalg.norm(got[sel] - verb.points[i, goal_axes])
+        errors = predicted_errors(verb, METHODS, i, np.array([j for j in range(e) if j != i]), _ranges(verb.points))
+        for m, (pose[m][i], adverb[m][i], g) in errors.items():
+            if goal is not None:
+                goal[m][i] = g
     return Evaluation(
         verb.name,
         [x.name for x in verb.examples],
@@ -227,6 +222,41 @@ def evaluate(verb: Verb) -> Evaluation:
         obedience(verb) if measured else {},
         drift(verb) if verb.constraints else None,
     )
+
+
+def _ranges(points: np.ndarray) -> np.ndarray:
+    """Each adverb's range over ``points (E, A)``, 1 where it is 0."""
+    ranges = np.ptp(points, axis=0)
+    return np.where(ranges > 0, ranges, 1.0)
+
+
+def predicted_errors(
+    verb: Verb, methods: tuple[str, ...], i: int, keep: np.ndarray, ranges: np.ndarray
+) -> dict[str, tuple[float, float, float]]:
+    """Example ``i`` predicted by each method from the examples ``keep``: pose, adverb and goal errors.
+
+    Pose error in mm, adverb error in % of ``ranges (A,)`` (mean over the measured adverbs), goal error
+    in mm (NaN without joint-position adverbs); all NaN where a method cannot predict from so few.
+    """
+    measured = _measured(verb)
+    goal_axes = [measured.index(a) for a in measured if verb.adverbs[a].measure["kind"] == "joint_position"]
+    truth = _pose_positions(verb, verb.coefficients[i])
+    out = {}
+    for m in methods:
+        predicted = predict(m, verb, verb.points[i], keep)
+        if predicted is None:
+            out[m] = (np.nan, np.nan, np.nan)
+            continue
+        cp, k = predicted
+        pose = 1000.0 * np.mean(np.linalg.norm(_pose_positions(verb, cp) - truth, axis=-1))
+        adverb = goal = np.nan
+        if measured:
+            got = measure_motion(verb, cp, k)
+            adverb = 100.0 * np.mean(np.abs(got - verb.points[i, measured]) / ranges[measured])
+            if goal_axes:
+                goal = 1000.0 * np.linalg.norm(got[goal_axes] - verb.points[i, measured][goal_axes])
+        out[m] = (pose, adverb, goal)
+    return out
 
 
 def drift(verb: Verb, cycles: int = 2) -> dict[str, dict[str, np.ndarray]]:
@@ -257,8 +287,7 @@ def obedience_points(verb: Verb) -> dict[str, np.ndarray]:
 def obedience(verb: Verb) -> dict[str, np.ndarray]:
     """Largest measured-minus-asked error per measured adverb, % of range, at each kind of point."""
     measured = _measured(verb)
-    ranges = np.ptp(verb.points, axis=0)[measured]
-    ranges = np.where(ranges > 0, ranges, 1.0)
+    ranges = _ranges(verb.points)[measured]
     out = {}
     for kind, pts in obedience_points(verb).items():
         errs = [
@@ -266,3 +295,131 @@ def obedience(verb: Verb) -> dict[str, np.ndarray]:
         ]
         out[kind] = 100.0 * np.max(errs, axis=0)
     return out
+
+
+# ----- held-out takes -------------------------------------------------------------------------
+
+DATA = Path(__file__).resolve().parents[3] / "data" / "bandai"
+HELD_OUT_METHODS = ("ours", "ours-auto", "linear", "nearest", "idw", "scipy-rbf")
+
+
+@dataclass(frozen=True)
+class TakeClass:
+    """Several takes of one action in Bandai Namco dataset 2: ``files`` formats the take number (1-based).
+
+    A gait's example is one cycle (two steps) from left heel strike ``strike`` (``"most_turning"``: the
+    cycle that turns most), over measured speed and turn rate; ``exceptions`` give some takes another
+    strike. A reach is the whole take, keytimes at the right hand's peak, over that peak's position.
+    """
+
+    name: str
+    files: str
+    takes: int
+    kind: str  # "gait" or "reach"
+    strike: int | str = 1
+    exceptions: tuple[tuple[int, int], ...] = ()
+
+    @property
+    def train(self) -> list[int]:
+        """The split: odd takes (1, 3, 5, …) build the verb."""
+        return list(range(1, self.takes + 1, 2))
+
+    @property
+    def test(self) -> list[int]:
+        """Even takes (2, 4, 6, …) are predicted at their measured adverb points."""
+        return list(range(2, self.takes + 1, 2))
+
+    def spec(self, data: Path) -> str:
+        """A verb spec (TOML) of every take, the same settings as the shipped walk and reach specs."""
+        if self.kind == "gait":
+            lines = ["num_cp = 16", "cyclic = true", 'cut = { foot = "left", steps = 2 }']
+            lines += [f'[[adverbs]]\nname = "{m}"\nmeasure = "{m}"' for m in ("speed", "turn_rate")]
+        else:
+            lines = ["num_cp = 20", "cyclic = false"]
+            lines += [
+                f'[[adverbs]]\nname = "hand_{a}"\n'
+                f'measure = {{ kind = "joint_position", joint = "Hand_R", axis = "{a}", keytime = 1 }}'
+                for a in "xyz"
+            ]
+        strikes = dict(self.exceptions)
+        for t in range(1, self.takes + 1):
+            part = 'keytimes = { peak = "Hand_R" }'
+            if self.kind == "gait":
+                strike = strikes.get(t, self.strike)
+                part = f"cut = {{ strike = {strike if isinstance(strike, int) else repr(strike)} }}"
+            lines.append(f'[[examples]]\nname = "take {t:02d}"\nfile = "{data / self.files.format(t)}"\n{part}')
+        return f'name = "{self.name}"\nencoding = "logquat"\n' + "\n".join(lines) + "\n"
+
+
+HELD_OUT_CLASSES = (
+    TakeClass("walk", "dataset-2_walk_normal_{:03d}.bvh", 8, "gait"),
+    TakeClass("walk-turn-left", "dataset-2_walk-turn-left_normal_{:03d}.bvh", 10, "gait", "most_turning"),
+    # Take 4's most-turning cycle is its last: a stop, turning back left at 131 deg/s. Its third cycle
+    # is the right turn (-45 deg/s).
+    TakeClass("walk-turn-right", "dataset-2_walk-turn-right_normal_{:03d}.bvh", 10, "gait", "most_turning", ((4, 2),)),
+    TakeClass("run", "dataset-2_run_normal_{:03d}.bvh", 5, "gait"),
+    TakeClass("reach", "dataset-2_raise-up-right-hand_normal_{:03d}.bvh", 20, "reach"),
+)
+
+
+@dataclass
+class HeldOut:
+    """Per class: the split, the smoothing "auto" chose on the training takes, and per-method errors of each test take."""
+
+    classes: list[TakeClass]
+    chosen: list[tuple[float, float]]  # (λ, μ) of ours-auto fitted to all the training takes
+    pose_mm: list[dict[str, np.ndarray]]  # method → (T,) pose error of each test take
+    adverb_pct: list[dict[str, np.ndarray]]  # method → (T,) adverb error, % of the training takes' range
+
+    def medians(self, errors: str = "pose_mm") -> list[dict[str, float]]:
+        """Per class, each method's median error over the test takes."""
+        return [{m: float(np.median(v)) for m, v in per.items()} for per in getattr(self, errors)]
+
+    def table(self) -> str:
+        """Markdown: median pose error (and adverb error) of the test takes per class and method."""
+        head = (
+            "| class | train (odd takes) | test (even takes) | ours-auto λ, μ | " + " | ".join(HELD_OUT_METHODS) + " |"
+        )
+        rows = ["Held-out takes: median pose error, mm (median adverb error, % of the training range):", ""]
+        rows += [head, "| --- " * (4 + len(HELD_OUT_METHODS)) + "|"]
+        for c, (lam, mu), pose, adverb in zip(self.classes, self.chosen, self.medians(), self.medians("adverb_pct")):
+            cells = []
+            best = min(pose[m] for m in ("linear", "nearest", "idw"))
+            for m in HELD_OUT_METHODS:
+                text = f"{pose[m]:.1f} ({adverb[m]:.0f}%)"
+                cells.append(f"**{text}**" if m.startswith("ours") and pose[m] <= best else text)
+            split = f"{_takes(c.train)} | {_takes(c.test)}"
+            rows.append(f"| {c.name} | {split} | {lam:g}, {mu:g} | " + " | ".join(cells) + " |")
+        return "\n".join(rows)
+
+
+def _takes(numbers: list[int]) -> str:
+    return ", ".join(f"{t:03d}" for t in numbers)
+
+
+def held_out(classes: tuple[TakeClass, ...] = HELD_OUT_CLASSES, data: Path = DATA) -> HeldOut:
+    """Build each class's verb from its odd takes and predict its even takes (see :class:`TakeClass`).
+
+    One verb is built from every take of a class (so the held-out takes' own control points are the
+    truth, compared as in the leave-one-out table), and each method predicts from the training takes
+    only: ``ours-auto`` chooses its smoothing by leave-one-out among the training takes. The encoding's
+    reference rotations (the centre of its log map) are the mean over all the class's takes: a chart
+    shared by truth and prediction, not part of any method.
+    """
+    chosen, pose, adverb = [], [], []
+    with tempfile.TemporaryDirectory() as tmp:
+        for c in classes:
+            path = Path(tmp) / f"{c.name}.toml"
+            path.write_text(c.spec(Path(data).resolve()), encoding="utf-8")
+            verb = build_from_spec(path)
+            train, test = np.array(c.train) - 1, np.array(c.test) - 1
+            ranges = _ranges(verb.points[train])
+            errors = [predicted_errors(verb, HELD_OUT_METHODS, i, train, ranges) for i in test]
+            pose.append({m: np.array([e[m][0] for e in errors]) for m in HELD_OUT_METHODS})
+            adverb.append({m: np.array([e[m][1] for e in errors]) for m in HELD_OUT_METHODS})
+            values = np.concatenate(
+                [verb.coefficients[train].reshape(len(train), -1), verb.log_intervals[train]], axis=1
+            )
+            ip = AdverbInterpolator(verb.points[train], smoothing="auto", shrinkage="auto", values=values)
+            chosen.append((ip.smoothing, ip.shrinkage))
+    return HeldOut(list(classes), chosen, pose, adverb)

@@ -46,16 +46,33 @@ def design_matrix(t: np.ndarray, num_cp: int) -> np.ndarray:
     return b
 
 
-def fit(t: np.ndarray, values: np.ndarray, num_cp: int) -> tuple[np.ndarray, np.ndarray]:
-    """Least-squares control points ``(num_cp, D)`` for samples ``values (S, D)`` at generic times ``t (S,)``.
+def fit(t: np.ndarray, values: np.ndarray, num_cp: int, smoothing: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """Regularized least-squares control points ``(num_cp, D)`` for samples ``values (S, D)`` at generic times ``t (S,)``.
 
-    Returns the control points and the residuals ``(S, D)`` of the fit.
+    Minimizes ``‖B c − v‖² + λ ‖Δ² c‖²`` with ``Δ²`` the second differences of the control points and
+    ``λ = smoothing · tr(BᵀB) / num_cp``: a penalty that vanishes on straight lines (so they are fitted
+    exactly) and keeps the system well posed where a stretch of generic time holds few samples
+    (keytimes a frame apart), instead of letting unobserved control points swing between samples.
+    ``smoothing = 0`` is plain least squares. Returns the control points and the residuals ``(S, D)``.
     """
     if len(t) < num_cp:
         raise AdverbsError(f"{len(t)} samples cannot determine {num_cp} control points; lower NumCP")
+    if not (np.isfinite(smoothing) and smoothing >= 0):
+        raise AdverbsError(f"smoothing must be a number ≥ 0, got {smoothing}")
     b = design_matrix(t, num_cp)
-    coef, *_ = np.linalg.lstsq(b, values, rcond=None)
+    if smoothing == 0:
+        coef, *_ = np.linalg.lstsq(b, values, rcond=None)
+    else:
+        coef = np.linalg.solve(normal_matrix(b, smoothing), b.T @ values)
     return coef, values - b @ coef
+
+
+def normal_matrix(b: np.ndarray, smoothing: float) -> np.ndarray:
+    """``BᵀB + λ Δ²ᵀΔ²`` with ``λ = smoothing · tr(BᵀB) / num_cp``: the system :func:`fit` solves."""
+    btb = b.T @ b
+    n = b.shape[1]
+    d2 = np.diff(np.eye(n), n=2, axis=0)
+    return btb + smoothing * np.trace(btb) / n * (d2.T @ d2)
 
 
 def evaluate(coefficients: np.ndarray, t: np.ndarray) -> np.ndarray:

@@ -3,8 +3,9 @@
 A foot is planted while its heel (ankle) or toe is both low — within ``height`` of that point's
 own lowest level in the clip, so a floor that is not at y = 0 does not matter — and slow — moving
 horizontally slower than ``speed``. Gaps shorter than ``max_gap`` are closed and flickers shorter
-than ``min_duration`` dropped. A heel strike is the first frame of a contact; a step runs from one
-heel strike to the next one of the other foot. Cutting examples at these events: :mod:`.cutting`.
+than ``min_duration`` dropped. A heel strike is the first frame of a contact, a toe-off the first
+frame after one; a step runs from one heel strike to the next one of the other foot. Cutting examples
+at these events: :mod:`.cutting`.
 """
 
 from __future__ import annotations
@@ -53,6 +54,15 @@ class Contacts:
     def strikes(self, foot: str | int) -> np.ndarray:
         """Frames of the foot's heel strikes (contacts that begin inside the clip)."""
         return np.array([a for a, _ in self.intervals(foot) if a > 0], dtype=int)
+
+    def toe_off_before(self, foot: str | int, frame: int) -> int | None:
+        """The toe-off of the foot's last contact that begins before ``frame``: the first frame after it.
+
+        It is at or after ``frame`` when the foot is still down then (the clip's length when it stays down
+        to the end); None when no contact of the foot begins before ``frame``.
+        """
+        before = [b for a, b in self.intervals(foot) if a < frame]
+        return before[-1] if before else None
 
     def steps(self) -> list[tuple[int, int]]:
         """Every heel strike as ``(frame, foot index)``, in time order."""

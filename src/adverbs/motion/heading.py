@@ -50,8 +50,26 @@ def character_heading(
     The pelvis swings its yaw back and forth with every step; the character's heading is the
     direction it travels around, so the swing is filtered out (a Gaussian of standard deviation
     ``smoothing``) and left to the body root's orientation relative to the heading.
+
+    The ends are padded by point reflection (``2 h[0] − h[k]`` before the start, likewise after the
+    end), so the filtered heading equals the hips' heading at the first and last frames and a steady
+    turn passes through unchanged. Repeating the end frames instead (the filter's usual "nearest"
+    mode) flattens the heading near both ends: a clip turning at a known rate read about
+    ``(T − 0.24 s) / T`` of it over a cycle of ``T`` seconds, and a cycle played after itself turned
+    by that much less than its example did.
     """
-    h = np.unwrap(heading(global_rotation, lateral))
-    if smoothing > 0 and len(h) > 1:
-        h = gaussian_filter1d(h, smoothing * fps, mode="nearest")
-    return h
+    return low_pass(np.unwrap(heading(global_rotation, lateral)), fps, smoothing)
+
+
+def low_pass(angles: np.ndarray, fps: float, smoothing: float = HEADING_SMOOTHING) -> np.ndarray:
+    """Unwrapped angles ``(F,)`` low-passed over ``smoothing`` seconds, their ends kept (point reflection).
+
+    A Gaussian of standard deviation ``smoothing``; a steady turn (angles linear in time) passes
+    through unchanged, and the first and last values are kept exactly.
+    """
+    if smoothing <= 0 or len(angles) < 2:
+        return np.asarray(angles, dtype=float)
+    sigma = smoothing * fps
+    pad = int(np.ceil(4.0 * sigma))  # the filter's reach (scipy truncates at 4 sigma)
+    padded = np.pad(angles, pad, mode="reflect", reflect_type="odd")
+    return gaussian_filter1d(padded, sigma, mode="nearest")[pad : pad + len(angles)]

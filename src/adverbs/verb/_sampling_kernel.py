@@ -14,22 +14,27 @@ from numba import njit
 GENERIC, CYCLIC, ONE_SHOT = 0, 1, 2  # what the times are: generic times, clock times of a cycle or of a one-shot
 CYCLE_EPS = 1e-9  # a time within this fraction of a cycle past its end still belongs to that cycle
 GROUPED = 64  # from this many queries on, they are grouped by B-spline segment into matrix products
+VELOCITIES = 3  # the first DOF columns are the root's velocities (vx, vz, turn): their seam fade keeps the integral
 
 
 @njit(cache=True)
-def sample_batch(segments, weights, keytimes, seam, rows, times, mode, window, out, cycles):  # pragma: no cover
+def sample_batch(segments, weights, keytimes, generic, seam, rows, times, mode, window, out, cycles):  # pragma: no cover
     """Write DOFs ``out (Q, D)`` and cycle indices ``cycles (Q,)`` for ``Q`` queries.
 
     segments (NumCP, E, D)  control points / 6, by control point (the verb's ``segments``)
     weights  (C, E)         cardinal weights of each creature's adverb point
     keytimes (C, N)         each creature's keytimes (read for clock times only)
+    generic  (N,)           where the keytimes sit in generic time (the verb's ``generic_keytimes``)
     seam     (C, D)         each creature's seam jump ``d(1) − d(0)`` (read for cycles only)
     rows     (Q,) int       the creature of each query
     times    (Q,)           generic times (``mode`` GENERIC) or clock times in seconds
     window   float          fraction of a cycle over which the seam is faded out
 
     Each query's DOFs are ``Σ_k Σ_e b_k(t) w_e c_{e, seg+k} + fade · seam``: a product of its 4·E
-    blend weights with the 4·E rows of control points live at its segment. A few queries are done
+    blend weights with the 4·E rows of control points live at its segment. The root's velocity
+    columns fade with ``fade − 3 s (1 − s)`` instead (``s`` the fraction of the window): it starts at 1
+    too, so the velocities are continuous at the seam, but integrates to zero over the window, so the
+    blend adds no distance and no turn to a cycle (the plain fade added up to 25 deg per cycle). A few queries are done
     one by one; many are grouped by segment so each group is one matrix product (BLAS).
     """
     ncp, ne, nd = segments.shape
@@ -37,14 +42,19 @@ def sample_batch(segments, weights, keytimes, seam, rows, times, mode, window, o
     segs = np.empty(nq, np.int64)
     blend = np.empty((nq, 4))
     fades = np.empty(nq)
+    vfades = np.empty(nq)
     for q in range(nq):
-        segs[q], fades[q], cycles[q] = _phase(keytimes, rows[q], times[q], mode, window, ncp, blend[q])
+        segs[q], fades[q], vfades[q], cycles[q] = _phase(
+            keytimes, generic, rows[q], times[q], mode, window, ncp, blend[q]
+        )
+    nv = min(VELOCITIES, nd)
     if nq < GROUPED:
         for q in range(nq):
             c = rows[q]
             seg = segs[q]
             for d in range(nd):
-                out[q, d] = fades[q] * seam[c, d] if fades[q] != 0.0 else 0.0
+                f = vfades[q] if d < nv else fades[q]
+                out[q, d] = f * seam[c, d] if f != 0.0 else 0.0
             for e in range(ne):
                 w = weights[c, e]
                 if w == 0.0:
@@ -73,16 +83,17 @@ def sample_batch(segments, weights, keytimes, seam, rows, times, mode, window, o
         for i in range(stop - start):
             q = order[start + i]
             c = rows[q]
-            f = fades[q]
             for d in range(nd):
+                f = vfades[q] if d < nv else fades[q]
                 out[q, d] = block[i, d] + f * seam[c, d] if f != 0.0 else block[i, d]
         start = stop
 
 
 @njit(cache=True, inline="always")
-def _phase(keytimes, c, clock, mode, window, ncp, blend):  # pragma: no cover
-    """B-spline segment, seam fade and cycle of one query; its four basis weights (× 6) into ``blend (4,)``."""
+def _phase(keytimes, generic, c, clock, mode, window, ncp, blend):  # pragma: no cover
+    """B-spline segment, seam fades (pose, velocities) and cycle of one query; its basis weights (× 6) into ``blend (4,)``."""
     fade = 0.0
+    vfade = 0.0
     cycle = 0
     if mode == GENERIC:
         t = clock
@@ -98,11 +109,12 @@ def _phase(keytimes, c, clock, mode, window, ncp, blend):  # pragma: no cover
         if cycle > 0:
             s = min(max(local / (window * end), 0.0), 1.0)
             fade = 1.0 - s * s * (3.0 - 2.0 * s)
+            vfade = fade - 3.0 * s * (1.0 - s)
         m = 0
         while m < nk - 2 and keytimes[c, m + 1] <= local:
             m += 1
         k0 = keytimes[c, m]
-        t = (m + (local - k0) / (keytimes[c, m + 1] - k0)) / (nk - 1)
+        t = generic[m] + (generic[m + 1] - generic[m]) * (local - k0) / (keytimes[c, m + 1] - k0)
     u = min(max(t, 0.0), 1.0) * (ncp - 3)
     seg = min(int(math.floor(u)), ncp - 4)
     x = u - seg
@@ -113,7 +125,7 @@ def _phase(keytimes, c, clock, mode, window, ncp, blend):  # pragma: no cover
     blend[1] = 3.0 * x3 - 6.0 * x2 + 4.0
     blend[2] = -3.0 * x3 + 3.0 * x2 + 3.0 * x + 1.0
     blend[3] = x3
-    return seg, fade, cycle
+    return seg, fade, vfade, cycle
 
 
 @njit(cache=True)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -11,8 +12,8 @@ import numpy as np
 from ..errors import AdverbsError
 from ..io.bvh import read_bvh
 from ..motion.clip import Clip
-from ..motion.contacts import find_contacts
-from ..motion.cutting import most_turning, step_events, step_range
+from ..motion.contacts import Contacts, find_contacts
+from ..motion.cutting import ORDERS, gait_order, most_turning, step_events, step_range, toe_off_lags
 from .measures import check_measure, default_unit, measure_all
 from .spec import CUT_FIELDS, SpecError
 from .tables import Adverb, Example
@@ -29,7 +30,7 @@ def examples_from_spec(spec: dict[str, Any]) -> tuple[list[Example], list[Adverb
         except AdverbsError as e:
             raise SpecError(path, str(e), field="skeleton") from None
     examples: list[Example] = []
-    pending = []
+    pending: list[_Part] = []
     for ex in spec["examples"]:
         name = ex["name"]
         file = base / ex["file"]
@@ -41,22 +42,20 @@ def examples_from_spec(spec: dict[str, Any]) -> tuple[list[Example], list[Adverb
             raise SpecError(path, str(e), name, "file") from None
         if spec["fps"] is not None and clip.fps != spec["fps"]:
             clip = clip.resample(spec["fps"])
-        elif pending and clip.fps != pending[0][1].fps:
+        elif pending and clip.fps != pending[0].part.fps:
             raise SpecError(
                 path,
-                f"{file.name} runs at {clip.fps:g} fps and example {pending[0][0]['name']!r} at "
-                f"{pending[0][1].fps:g}: set fps = ... at the top of the spec to resample every example",
+                f"{file.name} runs at {clip.fps:g} fps and example {pending[0].ex['name']!r} at "
+                f"{pending[0].part.fps:g}: set fps = ... at the top of the spec to resample every example",
                 name,
                 "file",
             )
         if reference is not None and not clip.skeleton.same_structure(reference):
             raise SpecError(path, f"{file.name} is on a different skeleton from {spec['skeleton']}", name, "file")
-        if pending:
-            first = pending[0][1]
-            if not clip.skeleton.same_structure(first.skeleton):
-                raise SpecError(
-                    path, f"{file.name} is on a different skeleton from example {pending[0][0]['name']!r}", name, "file"
-                )
+        if pending and not clip.skeleton.same_structure(pending[0].part.skeleton):
+            raise SpecError(
+                path, f"{file.name} is on a different skeleton from example {pending[0].ex['name']!r}", name, "file"
+            )
         mirror = ex.get("mirror", False)
         for flag in ("mirror", "refine"):
             if not isinstance(ex.get(flag, False), bool):
@@ -66,34 +65,27 @@ def examples_from_spec(spec: dict[str, Any]) -> tuple[list[Example], list[Adverb
                 clip = clip.mirror()
             except AdverbsError as e:
                 raise SpecError(path, str(e), name, "mirror") from None
-        part, keytimes, names, desc = _cut(path, ex, clip, spec)
-        pending.append((ex, clip, part, keytimes, desc, names))
+        pending.append(_cut(path, ex, clip, spec))
+    _place_toe_offs(path, pending)
 
-    num_keytimes = len(pending[0][3])
-    first_names = pending[0][5]
-    if spec["cyclic"] and first_names[0] != first_names[-1] and not first_names[0].startswith("keytime"):
+    first = pending[0]
+    num_keytimes = len(first.keytimes)
+    if spec["cyclic"] and first.names[0] != first.names[-1] and not first.names[0].startswith("keytime"):
         raise SpecError(
             path,
-            f"a cycle must end on the event it starts with, but its keytimes run from '{first_names[0]}' to "
-            f"'{first_names[-1]}': use an even number of steps",
-            pending[0][0]["name"],
+            f"a cycle must end on the event it starts with, but its keytimes run from '{first.names[0]}' to "
+            f"'{first.names[-1]}': use an even number of steps",
+            first.ex["name"],
             "cut.steps",
         )
-    for ex, _, _, keytimes, _, names in pending:
-        if len(keytimes) != num_keytimes:
+    for p in pending:
+        if p.names != first.names:
             raise SpecError(
                 path,
-                f"has {len(keytimes)} keytimes, example {pending[0][0]['name']!r} has {num_keytimes}: "
-                "every example needs the same structure (same number of steps)",
-                ex["name"],
-                "keytimes",
-            )
-        if names != pending[0][5]:
-            raise SpecError(
-                path,
-                f"its keytimes are {', '.join(names)}; example {pending[0][0]['name']!r} has "
-                f"{', '.join(pending[0][5])}: every example needs the same events in the same order",
-                ex["name"],
+                f"has {len(p.names)} keytimes ({', '.join(p.names)}), example {first.ex['name']!r} has "
+                f"{num_keytimes} ({', '.join(first.names)}): every example needs the same events in the same "
+                "order (the same cut.steps and cut.events)",
+                p.ex["name"],
                 "keytimes",
             )
 
@@ -102,13 +94,14 @@ def examples_from_spec(spec: dict[str, Any]) -> tuple[list[Example], list[Adverb
         m = a.get("measure")
         if m is not None:
             try:
-                m = check_measure(m, pending[0][1].skeleton.names, num_keytimes, f"{path}: adverb {a['name']!r}")
+                m = check_measure(m, first.part.skeleton.names, num_keytimes, f"{path}: adverb {a['name']!r}")
             except AdverbsError as e:
                 raise SpecError(path, str(e).split(": ", 2)[-1], field=f"adverbs.{a['name']}.measure") from None
         unit = a.get("unit", default_unit(m["kind"]) if m else "")
         adverbs.append(Adverb(a["name"], str(unit), m))
 
-    for ex, _, part, keytimes, desc, names in pending:
+    for p in pending:
+        ex, part, keytimes = p.ex, p.part, p.keytimes
         given = ex.get("adverbs", {})
         if not isinstance(given, dict):
             raise SpecError(path, "must be a table of adverb values", ex["name"], "adverbs")
@@ -145,14 +138,68 @@ def examples_from_spec(spec: dict[str, Any]) -> tuple[list[Example], list[Adverb
                 )
         examples.append(
             Example(
-                ex["name"], part, keytimes, np.array(point), ex["file"], desc, ex.get("refine", False), tuple(names)
+                ex["name"], part, keytimes, np.array(point), ex["file"], p.desc, ex.get("refine", False), tuple(p.names)
             )
         )
     return examples, adverbs
 
 
-def _cut(path: Path, ex: dict, clip: Clip, spec: dict) -> tuple[Clip, np.ndarray, list[str], str]:
-    """The example's part of the clip, its keytimes (seconds), their names, and a description."""
+@dataclass
+class _Part:
+    """One example's part of its file, before it is measured.
+
+    ``gait`` holds the file's contacts and the cut's heel-strike frames when toe-offs are to be keytimes
+    (``cut.events = "contacts"``); :func:`_place_toe_offs` then adds them to ``keytimes`` and ``names``.
+    """
+
+    ex: dict
+    part: Clip
+    keytimes: np.ndarray  # (N,) seconds from the part's start
+    names: list[str]
+    desc: str
+    gait: tuple[Contacts, np.ndarray] | None = None
+
+
+def _place_toe_offs(path: Path, parts: list[_Part]) -> None:
+    """Toe-off keytimes for the examples cut with ``events = "contacts"``, all in one order.
+
+    The order (:func:`adverbs.motion.cutting.gait_order`: a walk's or a run's) is the one most of those
+    examples fit; an example that does not fit it is a :class:`SpecError` naming the example, the foot
+    and the event, and the examples that have it.
+    """
+    gaits = [p for p in parts if p.gait is not None]
+    if not gaits:
+        return
+    try:
+        order = gait_order([toe_off_lags(*p.gait) for p in gaits])
+    except AdverbsError as e:
+        raise SpecError(path, str(e), gaits[0].ex["name"], "cut.events") from None
+    misfits = []
+    for p in gaits:
+        contacts, strikes = p.gait
+        try:
+            frames, p.names = step_events(contacts, strikes, order)
+        except AdverbsError as e:
+            misfits.append((p, str(e)))
+            continue
+        p.keytimes = (frames - strikes[0]) / contacts.fps
+    if misfits:
+        p, reason = misfits[0]
+        have = [q.ex["name"] for q in gaits if all(q is not m for m, _ in misfits)]
+        listed = ", ".join(repr(n) for n in have[:3]) + (f" and {len(have) - 3} more" if len(have) > 3 else "")
+        raise SpecError(
+            path,
+            f"{reason}. The other examples ({listed}) have it: their toe-offs come in a {order}'s order "
+            f"({ORDERS[order]}). A run with a flight phase and a walk or jog without one cannot share toe-off "
+            "keytimes, their events come in a different order; use heel-strike keytimes only (cut.events = "
+            '"strikes") to keep them in one verb, or leave this example out',
+            p.ex["name"],
+            "cut.events",
+        )
+
+
+def _cut(path: Path, ex: dict, clip: Clip, spec: dict) -> _Part:
+    """The example's part of the clip, its keytimes (seconds) and their names, and a description."""
     name = ex["name"]
     if "frames" in ex:
         frames = ex["frames"]
@@ -164,11 +211,11 @@ def _cut(path: Path, ex: dict, clip: Clip, spec: dict) -> tuple[Clip, np.ndarray
             raise SpecError(path, str(e), name, "frames") from None
         if part.num_frames < 2:
             raise SpecError(path, f"{frames} is a single frame; an example needs at least two", name, "frames")
-        return (part, *_given_keytimes(path, ex, part), f"frames {frames[0]}:{frames[1]}")
+        return _Part(ex, part, *_given_keytimes(path, ex, part), f"frames {frames[0]}:{frames[1]}")
     cut = dict(spec["cut"] or {})
     cut.update(ex.get("cut", {}))
     if not cut:
-        return (clip, *_given_keytimes(path, ex, clip), "whole file")
+        return _Part(ex, clip, *_given_keytimes(path, ex, clip), "whole file")
     extra = sorted(set(cut) - CUT_FIELDS)
     if extra:
         raise SpecError(path, f"unknown field; cut takes {', '.join(sorted(CUT_FIELDS))}", name, f"cut.{extra[0]}")
@@ -195,13 +242,15 @@ def _cut(path: Path, ex: dict, clip: Clip, spec: dict) -> tuple[Clip, np.ndarray
     except AdverbsError as e:
         raise SpecError(path, str(e), name, "cut") from None
     start, stop = int(strikes[0]), int(strikes[-1])
-    frames, names = step_events(contacts, start, stop, toe_offs=events == "contacts")
+    frames, names = step_events(contacts, strikes)
     k = int(np.flatnonzero(np.array(contacts.strikes(foot)) == start)[0])
-    return (
+    return _Part(
+        ex,
         clip.frames(start, stop + 1),
         (frames - start) / clip.fps,
         names,
         f"{steps} steps from {foot} heel strike {k}",
+        (contacts, strikes) if events == "contacts" else None,
     )
 
 

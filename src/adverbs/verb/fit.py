@@ -2,18 +2,36 @@
 
 Each example is encoded to DOF curves (:class:`~adverbs.motion.encoding.DofEncoding`), warped to
 generic time by its keytimes and fitted with uniform cubic B-splines (NumCP control points per DOF,
-least squares); the fit error is reported per example. :func:`build_from_spec` does the whole path
-from a TOML spec.
+regularized least squares); the fit error is reported per example. :func:`build_from_spec` does the
+whole path from a TOML spec.
+
+Well-posed fits whatever the keytime spacing. With toe-offs as keytimes, an interval can be a frame
+long or less (a toe-off on the frame of the other foot's strike). The paper spaces keytimes evenly in
+generic time, which gives that half frame as many control points as a whole step: they are fitted to
+one or two samples, the system's condition number reaches 1e17, and between frames the curves swing
+(joint speeds of 60–280 m/s, measured). Two things keep the fit well posed:
+
+* generic keytimes spaced as the examples' keytimes are on average (``keytime_spacing = "examples"``,
+  the default; ``"even"`` is the paper's; see :func:`~adverbs.interp.timewarp.examples_spacing`), so
+  each stretch of generic time holds about as many samples as any other, and control points are
+  spent evenly over the motion;
+* a small penalty on the control points' second differences (:func:`~adverbs.interp.bspline.fit`),
+  which leaves straight lines alone and pins control points that no sample reaches.
+
+The fit error is measured at the frames and, for the pose, on a grid four times finer (against the
+example's frames joined by slerp); a fit whose curves move a joint much faster between frames than
+the example ever does raises an :class:`~adverbs.errors.AdverbsWarning` naming the example.
 """
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import AdverbsError
+from ..errors import AdverbsError, AdverbsWarning
 from ..interp import bspline, timewarp
 from ..kinematics.fk import forward_kinematics
 from ..motion.clip import Clip
@@ -22,6 +40,11 @@ from .constraints import Constraint, auto_constraints
 from .examples import examples_from_spec
 from .spec import SpecError, load_spec
 from .tables import Adverb, Example, ExampleRecord, Verb
+
+FIT_SMOOTHING = 1e-4  # second-difference penalty of the B-spline fit (see bspline.fit)
+FINE = 4  # the fit error is measured at this many times the examples' frame rate
+SPEED_WARNING = 1.5  # warn when a fit moves a joint this many times faster than its example ever does
+KEYTIME_SPACINGS = ("examples", "even")
 
 
 def build_verb(
@@ -33,12 +56,18 @@ def build_verb(
     cyclic: bool = True,
     constraints: Sequence[Constraint] | str = "auto",
     floor: float = 0.0,
+    keytime_spacing: str = "examples",
+    smoothing: float | str = 0.0,
+    shrinkage: float | str = 0.0,
 ) -> Verb:
     """Fit B-splines to every example in generic time and set up the interpolation (§3.1, §4).
 
     ``constraints`` are the verb's kinematic constraints, or ``"auto"`` to find them from the
     examples' contact keytimes (see :mod:`adverbs.verb.constraints`); ``floor`` is the height of the
-    ground the examples walk on.
+    ground the examples walk on; ``keytime_spacing`` places the keytimes in generic time (``"examples"``:
+    spaced as the examples' keytimes are on average; ``"even"``: evenly, as in the paper);
+    ``smoothing`` and ``shrinkage`` make the interpolation approximate (a number ≥ 0 or ``"auto"``;
+    see :class:`~adverbs.interp.rbf.AdverbInterpolator`; 0, exact, is the default).
     """
     if len(examples) < 2:
         raise AdverbsError(f"verb {name!r}: needs at least two examples, got {len(examples)}")
@@ -52,24 +81,44 @@ def build_verb(
                 f"example {ex.name!r} has {len(ex.keytimes)} keytimes, example {first.name!r} has "
                 f"{len(first.keytimes)}: every example of a verb needs the same structure"
             )
-    enc = DofEncoding.fit([ex.clip for ex in examples], encoding)
-    coefficients = np.empty((len(examples), num_cp, enc.num_dofs))
-    records = []
-    for i, ex in enumerate(examples):
+    if keytime_spacing not in KEYTIME_SPACINGS:
+        raise AdverbsError(f"keytime_spacing must be one of {', '.join(KEYTIME_SPACINGS)}, got {keytime_spacing!r}")
+    for ex in examples:
         k = timewarp.check_keytimes(ex.keytimes, f"example {ex.name!r}")
         if k[0] != 0.0 or abs(k[-1] - ex.clip.duration) > 0.5 / ex.clip.fps:
             raise AdverbsError(
                 f"example {ex.name!r}: keytimes must run from 0 to the clip's duration {ex.clip.duration:.4f} s, "
                 f"got {k[0]:.4f} to {k[-1]:.4f}"
             )
-        dofs = enc.encode(ex.clip)
-        t = timewarp.generic_time(np.arange(ex.clip.num_frames) / ex.clip.fps, k)
-        coefficients[i], _ = bspline.fit(t, dofs, num_cp)
-        fitted = enc.decode(bspline.evaluate(coefficients[i], t), ex.clip.fps, enc.start(ex.clip))
-        err = _body_error(enc, ex.clip, fitted)
-        records.append(ExampleRecord(ex.name, ex.source, ex.part, err, ex.refine))
+        if ex.clip.num_frames < num_cp:
+            shortest = min(examples, key=lambda x: x.clip.num_frames)
+            raise AdverbsError(
+                f"example {ex.name!r} has {ex.clip.num_frames} frames ({ex.clip.duration:.3f} s), too few to fit "
+                f"num_cp = {num_cp} control points: lower num_cp to at most {shortest.clip.num_frames} "
+                f"(the shortest example, {shortest.name!r}, has {shortest.clip.num_frames} frames)"
+            )
     keytimes = np.stack([np.asarray(ex.keytimes, dtype=float) for ex in examples])
     keytimes[:, -1] = [ex.clip.duration for ex in examples]
+    if keytime_spacing == "examples":
+        spacing = timewarp.examples_spacing(keytimes)
+    else:
+        spacing = timewarp.even_spacing(keytimes.shape[1])
+    enc = DofEncoding.fit([ex.clip for ex in examples], encoding)
+    coefficients = np.empty((len(examples), num_cp, enc.num_dofs))
+    records = []
+    for i, ex in enumerate(examples):
+        t = timewarp.generic_time(np.arange(ex.clip.num_frames) / ex.clip.fps, keytimes[i], spacing)
+        coefficients[i], _ = bspline.fit(t, enc.encode(ex.clip), num_cp, FIT_SMOOTHING)
+        err, fine_err, speed = _fine_fit_check(enc, ex.clip, coefficients[i], keytimes[i], spacing)
+        if speed > SPEED_WARNING:
+            warnings.warn(
+                f"example {ex.name!r}: its fitted curves move a joint {speed:.1f}x faster between frames than the "
+                f"example ever does (pose error {fine_err * 1000:.0f} mm on a {FINE}x finer grid): the fit cannot "
+                "be trusted; lower num_cp or check the example's keytimes",
+                AdverbsWarning,
+                stacklevel=2,
+            )
+        records.append(ExampleRecord(ex.name, ex.source, ex.part, err, ex.refine, fine_err))
     points = np.stack([np.asarray(ex.point, dtype=float) for ex in examples])
     names = first.keytime_names
     if isinstance(constraints, str):
@@ -91,27 +140,58 @@ def build_verb(
         names,
         constraints,
         floor,
+        spacing,
+        smoothing,
+        shrinkage,
     )
 
 
-def _body_error(enc: DofEncoding, clip: Clip, decoded: tuple[np.ndarray, np.ndarray]) -> float:
-    """Largest distance between the clip's joints (from the body root down) and the decoded ones."""
+def _fine_fit_check(
+    enc: DofEncoding, clip: Clip, coefficients: np.ndarray, keytimes: np.ndarray, spacing: np.ndarray
+) -> tuple[float, float, float]:
+    """How well the curves fit ``clip``: at its frames, and on a grid ``FINE`` times finer.
+
+    Returns the largest distance (metres) of the fitted joints (from the body root down) from the
+    clip's at its frames; the largest distance on the fine grid between the fitted pose and the
+    clip's frames joined by slerp, both in the character's own frame (a root integrated at another
+    rate is shifted by half a frame along its path, which is not an error of the fit); and the ratio
+    of the fitted pose's largest joint speed there to the clip's own (frame differences at its rate).
+    """
     skel = clip.skeleton
     body = [j for j in range(skel.num_joints) if enc.body_root in skel.ancestors(j)]
-    a = clip.global_positions()[:, body]
-    b = forward_kinematics(skel.parents, *decoded)[0][:, body]
-    return float(np.linalg.norm(a - b, axis=-1).max())
+    t = timewarp.generic_time(np.arange(clip.num_frames) / clip.fps, keytimes, spacing)
+    decoded = enc.decode(bspline.evaluate(coefficients, t), clip.fps, enc.start(clip))
+    at_frames = np.linalg.norm(forward_kinematics(skel.parents, *decoded)[0][:, body] - clip.global_positions()[:, body], axis=-1)
+
+    def own_frame(dofs: np.ndarray, fps: float) -> np.ndarray:
+        dofs = dofs.copy()
+        dofs[:, :3] = 0.0  # no travel, no turning: the pose in the character's own frame
+        return forward_kinematics(skel.parents, *enc.decode(dofs, fps))[0][:, body]
+
+    fine = clip.resample(clip.fps * FINE)
+    t = timewarp.generic_time(np.arange(fine.num_frames) / fine.fps, keytimes, spacing)
+    fitted = own_frame(bspline.evaluate(coefficients, t), fine.fps)
+    error = np.linalg.norm(own_frame(enc.encode(fine), fine.fps) - fitted, axis=-1).max()
+    own = own_frame(enc.encode(clip), clip.fps)
+    speed = np.linalg.norm(np.diff(fitted, axis=0), axis=-1).max() * fine.fps
+    speed_own = np.linalg.norm(np.diff(own, axis=0), axis=-1).max() * clip.fps
+    return float(at_frames.max()), float(error), float(speed / speed_own)
 
 
 def build_from_spec(path: str | Path) -> Verb:
     """Parse a spec, read and cut its examples, and build the verb."""
+    return build_with_examples(path)[0]
+
+
+def build_with_examples(path: str | Path) -> tuple[Verb, list[Example]]:
+    """:func:`build_from_spec`, also returning the examples the verb was built from (cut, measured)."""
     spec = load_spec(path)
     examples, adverbs = examples_from_spec(spec)
     constraints = spec["constraints"]
     if constraints != "auto":
         constraints = [Constraint(str(c["effector"]), c["open"], c["close"]) for c in constraints]
     try:
-        return build_verb(
+        verb = build_verb(
             spec["name"],
             examples,
             adverbs,
@@ -120,7 +200,11 @@ def build_from_spec(path: str | Path) -> Verb:
             spec["cyclic"],
             constraints,
             spec["floor"],
+            spec["keytime_spacing"],
+            spec["smoothing"],
+            spec["shrinkage"],
         )
+        return verb, examples
     except SpecError:
         raise
     except AdverbsError as e:
@@ -129,4 +213,10 @@ def build_from_spec(path: str | Path) -> Verb:
         field = "adverbs" if "adverb point" in text or "non-finite" in text else None
         if text.startswith("constraint on") or "no joint named" in text:
             field = "constraints"
+        elif "num_cp" in text:
+            field = "num_cp"
+        elif "shrinkage" in text:
+            field = "shrinkage"
+        elif "smoothing" in text:
+            field = "smoothing"
         raise SpecError(spec["path"], text, example, field) from None

@@ -9,10 +9,11 @@ caller owns → DOFs ``(C, D)``. One creature is ``C = 1``. For each creature:
 2. the clock ``T`` is split into a cycle ``n`` and a time within it, ``T − n K_N`` (cyclic verbs; a
    time exactly at a cycle's end belongs to that cycle, times before 0 are held at 0) or clamped to
    ``[0, K_N]`` (one-shot verbs);
-3. generic time ``t = GenericTime(T, K(p))`` (§3.2) and the four B-spline control points live at
+3. generic time ``t = GenericTime(T, K(p))`` (§3.2, keytime ``m`` at the verb's generic keytime ``G_m``) and the four B-spline control points live at
    ``t``, each interpolated as ``Σ_i w_i c_i`` (eq. 3);
 4. from the second cycle on, the jump ``δ = d(1) − d(0)`` where a captured cycle does not end where it
-   began is added and faded out over the first quarter of the cycle (smoothstep), so the motion is
+   began is added and faded out over the first quarter of the cycle (smoothstep; for the root's
+   velocities a fade that integrates to zero, so the blend adds no distance or turn), so the motion is
    continuous from cycle to cycle.
 
 Steps 2–4 are a compiled loop (:mod:`._sampling_kernel`); :func:`sample_reference` is the same
@@ -33,7 +34,7 @@ import numpy as np
 
 from ..errors import AdverbsError
 from ..interp import bspline, timewarp
-from ._sampling_kernel import CYCLE_EPS, CYCLIC, GENERIC, ONE_SHOT, refresh_batch, sample_batch
+from ._sampling_kernel import CYCLE_EPS, CYCLIC, GENERIC, ONE_SHOT, VELOCITIES, refresh_batch, sample_batch
 
 if TYPE_CHECKING:
     from .tables import Verb
@@ -144,6 +145,7 @@ def run_kernel(
     segments: np.ndarray,
     weights: np.ndarray,
     keytimes: np.ndarray,
+    generic: np.ndarray,
     seam: np.ndarray,
     rows: np.ndarray,
     times: np.ndarray,
@@ -157,7 +159,7 @@ def run_kernel(
     rows = np.ascontiguousarray(rows, dtype=np.int64)
     out = np.empty((len(rows), segments.shape[2]))
     cycles = np.empty(len(rows), dtype=np.int64) if cycles is None else cycles
-    sample_batch(segments, weights, keytimes, seam, rows, np.ascontiguousarray(times, dtype=float), kind, SEAM_BLEND, out, cycles)
+    sample_batch(segments, weights, keytimes, generic, seam, rows, np.ascontiguousarray(times, dtype=float), kind, SEAM_BLEND, out, cycles)
     return out
 
 
@@ -168,8 +170,9 @@ def _sample_state(verb: Verb, points: np.ndarray, clocks: np.ndarray, state: Sam
     state.check(verb, len(points))
     state.update(verb, points)
     out = run_kernel(
-        verb.segments, state.weights, state.keytimes, state.seam, np.arange(len(points)), clocks, mode(verb), state.cycle
-    )
+        verb.segments, state.weights, state.keytimes, verb.generic_keytimes, state.seam, np.arange(len(points)), clocks,
+        mode(verb), state.cycle,
+    )  # fmt: skip
     return out, state
 
 
@@ -218,7 +221,9 @@ def clocks_dofs(verb: Verb, state: SamplingState, rows: np.ndarray, clocks: np.n
     The kernel's many-queries form, for one creature at many times (a whole clip) or any mix; the
     state's cache is read, not changed (its ``cycle`` is left as it was).
     """
-    return run_kernel(verb.segments, state.weights, state.keytimes, state.seam, rows, clocks, mode(verb))
+    return run_kernel(
+        verb.segments, state.weights, state.keytimes, verb.generic_keytimes, state.seam, rows, clocks, mode(verb)
+    )
 
 
 def dofs(verb: Verb, p: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -247,7 +252,9 @@ def dofs(verb: Verb, p: np.ndarray, t: np.ndarray) -> np.ndarray:
             p[a : a + CHUNK], rows, *verb.interpolator.kernel_tables, no_keytimes, no_seam,
             w, np.empty((len(rows), 1)), np.empty((len(rows), 0)),
         )  # fmt: skip
-        out[a : a + CHUNK] = run_kernel(verb.segments, w, no_keytimes, no_seam, rows, t[a : a + CHUNK], GENERIC)
+        out[a : a + CHUNK] = run_kernel(
+            verb.segments, w, no_keytimes, verb.generic_keytimes, no_seam, rows, t[a : a + CHUNK], GENERIC
+        )
     return out
 
 
@@ -282,11 +289,13 @@ def sample_reference(verb: Verb, points: np.ndarray, clocks: np.ndarray) -> np.n
         end = k[-1]
         cycle = max(math.ceil(clock / end - CYCLE_EPS) - 1, 0) if verb.cyclic else 0
         local = min(max(clock - cycle * end, 0.0), end)
-        d = bspline.evaluate(cp, timewarp.generic_time(np.array(local), k))
+        d = bspline.evaluate(cp, timewarp.generic_time(np.array(local), k, verb.generic_keytimes))
         if cycle > 0:
             v0, _, v1, _ = bspline.ends(cp)
             s = min(local / (SEAM_BLEND * end), 1.0)
-            d = d + (1.0 - s * s * (3.0 - 2.0 * s)) * (v1 - v0)
+            fade = np.full(len(d), 1.0 - s * s * (3.0 - 2.0 * s))
+            fade[:VELOCITIES] -= 3.0 * s * (1.0 - s)
+            d = d + fade * (v1 - v0)
         out.append(d)
     return np.stack(out)
 

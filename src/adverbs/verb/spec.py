@@ -8,6 +8,9 @@ cyclic = true                 # a cycle (walk) or a one-shot motion (reach)
 skeleton = "data/x.bvh"       # optional: every example must be on this skeleton
 cut = { foot = "left", steps = 2 }   # default part of each file: one cycle from a left heel strike
 fps = 30                      # optional: resample every example to this rate (needed when files differ)
+keytime_spacing = "examples"  # keytimes in generic time spaced as the examples' are; "even": the paper's
+smoothing = 0                 # interpolation: 0 exact (the paper's); a number or "auto" to approximate
+shrinkage = 0                 # shrink the linear part's slopes: 0 (default), a number or "auto"
 
 [[adverbs]]
 name = "turn"
@@ -60,6 +63,9 @@ _TOP = {
     "floor",
     "constraints",
     "fps",
+    "keytime_spacing",
+    "smoothing",
+    "shrinkage",
 }
 _ADVERB = {"name", "unit", "measure", "description"}
 _EXAMPLE = {"name", "file", "cut", "frames", "keytimes", "mirror", "adverbs", "refine", "description"}
@@ -156,6 +162,15 @@ def load_spec(path: str | Path) -> dict[str, Any]:
     fps = raw.get("fps")
     if fps is not None and (isinstance(fps, bool) or not isinstance(fps, int | float) or not 0 < fps < 10000):
         raise SpecError(path, f"must be a frame rate in frames per second, got {fps!r}", field="fps")
+    spacing = raw.get("keytime_spacing", "examples")
+    if spacing not in ("examples", "even"):
+        raise SpecError(path, f'must be "examples" or "even", got {spacing!r}', field="keytime_spacing")
+    rules = {}
+    for key in ("smoothing", "shrinkage"):
+        v = raw.get(key, 0.0)
+        if v != "auto" and (isinstance(v, bool) or not isinstance(v, int | float) or not (math.isfinite(v) and v >= 0)):
+            raise SpecError(path, f'must be a number ≥ 0 or "auto", got {v!r}', field=key)
+        rules[key] = v if v == "auto" else float(v)
     constraints = raw.get("constraints", "auto")
     if constraints != "auto":
         if not isinstance(constraints, list):
@@ -169,6 +184,9 @@ def load_spec(path: str | Path) -> dict[str, Any]:
         "floor": float(floor),
         "fps": None if fps is None else float(fps),
         "constraints": constraints,
+        "keytime_spacing": spacing,
+        "smoothing": rules["smoothing"],
+        "shrinkage": rules["shrinkage"],
         "encoding": encoding,
         "num_cp": num_cp,
         "cyclic": cyclic,

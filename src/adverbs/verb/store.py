@@ -21,8 +21,8 @@ from ..motion.encoding import DofEncoding
 from .constraints import Constraint
 from .tables import Adverb, ExampleRecord, Verb
 
-FORMAT = "adverbs-verb"  # version 2 added keytime names, constraints and the floor
-VERSION = 2
+FORMAT = "adverbs-verb"  # 2 added keytime names, constraints, floor; 3 generic keytimes, smoothing
+VERSION = 3
 
 
 def save_verb(verb: Verb, path: str | Path) -> None:
@@ -43,9 +43,18 @@ def save_verb(verb: Verb, path: str | Path) -> None:
         "keytime_names": list(verb.keytime_names),
         "constraints": [c.to_dict() for c in verb.constraints],
         "floor": verb.floor,
+        "smoothing": verb.smoothing,
+        "shrinkage": verb.shrinkage,
         "adverbs": [{"name": a.name, "unit": a.unit, "measure": a.measure} for a in verb.adverbs],
         "examples": [
-            {"name": x.name, "source": x.source, "part": x.part, "fit_error": x.fit_error, "refine": x.refine}
+            {
+                "name": x.name,
+                "source": x.source,
+                "part": x.part,
+                "fit_error": x.fit_error,
+                "refine": x.refine,
+                "fine_error": x.fine_error,
+            }
             for x in verb.examples
         ],
         "encoding": {
@@ -64,6 +73,7 @@ def save_verb(verb: Verb, path: str | Path) -> None:
     arrays = {
         "points": verb.points,
         "keytimes": verb.keytimes_table,
+        "generic_keytimes": verb.generic_keytimes,
         "coefficients": verb.coefficients,
         "parents": skel.parents,
         "offsets": skel.offsets,
@@ -138,7 +148,9 @@ def load_verb(path: str | Path) -> Verb:
         )
         adverbs = [Adverb(a["name"], a.get("unit", ""), a.get("measure")) for a in meta["adverbs"]]
         examples = [
-            ExampleRecord(x["name"], x["source"], x["part"], float(x["fit_error"]), bool(x.get("refine", False)))
+            ExampleRecord(
+                x["name"], x["source"], x["part"], float(x["fit_error"]), bool(x["refine"]), float(x["fine_error"])
+            )
             for x in meta["examples"]
         ]
         return Verb(
@@ -154,6 +166,9 @@ def load_verb(path: str | Path) -> Verb:
             tuple(meta["keytime_names"]),
             [Constraint(c["effector"], int(c["open"]), int(c["close"])) for c in meta["constraints"]],
             float(meta["floor"]),
+            arrays["generic_keytimes"],
+            float(meta["smoothing"]),
+            float(meta["shrinkage"]),
         )
     except AdverbsError as e:
         raise AdverbsError(f"{path}: {e}") from None

@@ -134,7 +134,7 @@ def render(
     v0, _, v1, _ = bspline.ends(cp)
     clocks, fps = frame_clocks(verb, k[-1], duration, cycles, fps, point)
     dofs = sampling.run_kernel(
-        np.ascontiguousarray(cp[:, None, :] / 6.0), np.ones((1, 1)), k[None], (v1 - v0)[None],
+        np.ascontiguousarray(cp[:, None, :] / 6.0), np.ones((1, 1)), k[None], verb.generic_keytimes, (v1 - v0)[None],
         np.zeros(len(clocks)), clocks, sampling.mode(verb),
     )  # fmt: skip
     return verb.encoding.decode_clip(dofs, fps, start, name=verb.name), k

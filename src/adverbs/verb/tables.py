@@ -72,8 +72,9 @@ class ExampleRecord:
     name: str
     source: str
     part: str
-    fit_error: float = field(default=0.0)  # largest joint-position error of the B-spline fit, metres
+    fit_error: float = field(default=0.0)  # largest joint-position error of the B-spline fit at the frames, metres
     refine: bool = False
+    fine_error: float = 0.0  # largest pose error of the fit on a grid 4x finer than the frames, metres
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:
@@ -97,6 +98,11 @@ class Verb:
     encoding : DofEncoding (the skeleton is ``encoding.skeleton``)
     constraints : the kinematic constraints (feet held between keytimes)
     floor : height of the ground the examples stand on, metres
+    generic_keytimes : (N,) where each keytime sits in generic time, from 0 to 1, shared by every
+        example (default: evenly spaced, the paper's; see :mod:`adverbs.interp.timewarp`)
+    smoothing, shrinkage : the interpolation's smoothing λ and slope shrinkage μ (0: exact, the
+        paper's; ``"auto"``: chosen by leave-one-out on the verb's own tables, then kept as numbers;
+        see :class:`~adverbs.interp.rbf.AdverbInterpolator`)
 
     Derived tables (computed once): ``interpolator`` (cardinal weights), ``log_intervals (E, N-1)``,
     ``segments (NumCP, E, D)`` (the coefficients by control point, with the B-spline basis's 1/6
@@ -116,6 +122,9 @@ class Verb:
     keytime_names: tuple[str, ...] = ()
     constraints: tuple[Constraint, ...] = ()
     floor: float = 0.0
+    generic_keytimes: np.ndarray | None = None
+    smoothing: float | str = 0.0
+    shrinkage: float | str = 0.0
     interpolator: AdverbInterpolator = field(init=False, repr=False)
     log_intervals: np.ndarray = field(init=False, repr=False)
     segments: np.ndarray = field(init=False, repr=False)
@@ -134,6 +143,10 @@ class Verb:
         put(self, "fps", float(self.fps))
         put(self, "floor", float(self.floor))
         n = self.keytimes_table.shape[1]
+        try:
+            put(self, "generic_keytimes", _frozen(timewarp.check_generic(self.generic_keytimes, n)))
+        except AdverbsError as e:
+            raise AdverbsError(f"verb {name!r}: {e}") from None
         put(self, "keytime_names", tuple(self.keytime_names) or tuple(f"keytime {i}" for i in range(n)))
         if len(self.keytime_names) != n:
             raise AdverbsError(f"verb {name!r}: {len(self.keytime_names)} keytime names for {n} keytimes")
@@ -146,12 +159,19 @@ class Verb:
         if coef.ndim != 3 or coef.shape[0] != e or coef.shape[2] != enc.num_dofs:
             raise AdverbsError(f"verb {name!r}: coefficient table {coef.shape} does not fit")
         bspline.check_num_cp(coef.shape[1])
-        put(
-            self,
-            "interpolator",
-            AdverbInterpolator(self.points, [x.name for x in self.examples], linear=[not x.refine for x in self.examples]),
+        log_intervals = np.log(np.diff(self.keytimes_table, axis=1))
+        ip = AdverbInterpolator(
+            self.points,
+            [x.name for x in self.examples],
+            linear=[not x.refine for x in self.examples],
+            smoothing=self.smoothing,
+            shrinkage=self.shrinkage,
+            values=np.concatenate([coef.reshape(e, -1), log_intervals], axis=1),
         )
-        put(self, "log_intervals", _frozen(np.log(np.diff(self.keytimes_table, axis=1))))
+        put(self, "interpolator", ip)
+        put(self, "smoothing", float(ip.smoothing))  # "auto" resolved: what a saved verb keeps
+        put(self, "shrinkage", float(ip.shrinkage))
+        put(self, "log_intervals", _frozen(log_intervals))
         put(self, "segments", _frozen(coef.transpose(1, 0, 2) / 6.0))
         v0, _, v1, _ = bspline.ends(coef.transpose(1, 0, 2))
         put(self, "seam_table", _frozen(v1 - v0))
