@@ -65,7 +65,18 @@ def test_missing_file(tmp_path):
 def test_examples_on_different_skeletons(tmp_path):
     bandai = BANDAI / "dataset-1_walk_happy_001.bvh"
     path = spec(tmp_path, example("a", WALK, "adverbs = { mood = 0 }"), example("b", bandai, "adverbs = { mood = 1 }"))
-    fails(path, "b", "file", "different skeleton from example 'a'")
+    err = fails(path, "b", "file", "different skeleton from example 'a'")
+    assert err.reason.endswith("it has 22 joints, not 19"), err.reason
+
+
+def test_examples_by_different_performers_name_the_bone(tmp_path):
+    """A take whose shin is 2 cm longer (another performer on the same rig) is refused naming that bone."""
+    text = WALK.read_text()
+    other = tmp_path / "other_performer.bvh"
+    other.write_text(text.replace("OFFSET 0.000000 -42.030400 0.000000", "OFFSET 0.000000 -44.030400 0.000000", 1))
+    path = spec(tmp_path, example("a", WALK, "adverbs = { mood = 0 }"), example("b", other, "adverbs = { mood = 1 }"))
+    err = fails(path, "b", "file", "different skeleton from example 'a'")
+    assert "bone 'lfemur'→'ltibia' differs by 20.0 mm" in err.reason and "0.440 m long, not 0.420 m" in err.reason
 
 
 def test_different_keytime_counts(tmp_path):

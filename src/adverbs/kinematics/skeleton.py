@@ -132,15 +132,40 @@ class Skeleton:
         The offsets of the body root and its ancestors are left out: they place the figure in the
         world (some files bake the take's starting position into the hips' offset), they are not bones.
         """
-        if (
-            self.names != other.names
-            or not np.array_equal(self.parents, other.parents)
-            or self.channels != other.channels
-        ):
-            return False
+        return self.structure_difference(other, tol) is None
+
+    def structure_difference(self, other: Skeleton, tol: float = 1e-6) -> str | None:
+        """How ``other`` differs from this skeleton, in words naming the joint or bone; ``None`` if it does not.
+
+        Checked in order: the joints (count, then the first name that differs), their parents, their
+        channels, then the bones (offsets below the body root): the bone whose length or direction
+        differs most, with both lengths — two performers, or one rig retargeted, differ there.
+        """
+        if self.names != other.names:
+            if self.num_joints != other.num_joints:
+                return f"it has {other.num_joints} joints, not {self.num_joints}"
+            j = next(i for i, (a, b) in enumerate(zip(self.names, other.names, strict=True)) if a != b)
+            return f"joint {j + 1} is {other.names[j]!r}, not {self.names[j]!r}"
+        for j in range(self.num_joints):
+            if self.parents[j] != other.parents[j]:
+                here, there = (
+                    s.names[s.parents[j]] if s.parents[j] >= 0 else "no parent" for s in (self, other)
+                )
+                return f"joint {self.names[j]!r} hangs from {there!r}, not {here!r}"
+            if self.channels[j] != other.channels[j]:
+                return f"joint {self.names[j]!r} has channels {' '.join(other.channels[j])}, not {' '.join(self.channels[j])}"
         bones = np.ones(self.num_joints, dtype=bool)
         bones[self.ancestors(self.body_root())] = False
-        return bool(np.allclose(self.offsets[bones], other.offsets[bones], atol=tol, rtol=0.0))
+        gap = np.where(bones, np.abs(self.offsets - other.offsets).max(axis=1), 0.0)
+        j = int(np.argmax(gap))
+        if gap[j] <= tol:
+            return None
+        parent = self.names[self.parents[j]]
+        here, there = (float(np.linalg.norm(s.offsets[j])) for s in (self, other))
+        return (
+            f"bone {parent!r}→{self.names[j]!r} differs by {gap[j] * 1000:.1f} mm "
+            f"({there:.3f} m long, not {here:.3f} m): a different performer or rig"
+        )
 
     # ----- sides, mirroring, feet -------------------------------------------------------------
     def side(self, joint: int) -> str | None:

@@ -94,8 +94,9 @@ class DofEncoding:
             raise AdverbsError("fit needs at least one clip")
         skel = clips[0].skeleton
         for c in clips[1:]:
-            if not c.skeleton.same_structure(skel):
-                raise AdverbsError(f"clip {c.name!r} is on a different skeleton from {clips[0].name!r}")
+            why = skel.structure_difference(c.skeleton)
+            if why is not None:
+                raise AdverbsError(f"clip {c.name!r} is on a different skeleton from {clips[0].name!r}: {why}")
         if body_root is None:
             root = skel.body_root()
         else:
@@ -159,8 +160,9 @@ class DofEncoding:
         return np.flatnonzero(_below(self.skeleton, self.body_root))
 
     def _check(self, clip: Clip) -> None:
-        if not clip.skeleton.same_structure(self.skeleton):
-            raise AdverbsError(f"clip {clip.name!r} is not on the skeleton this encoding was fitted to")
+        why = self.skeleton.structure_difference(clip.skeleton)
+        if why is not None:
+            raise AdverbsError(f"clip {clip.name!r} is not on the skeleton this encoding was fitted to: {why}")
 
     # ----- encode ----------------------------------------------------------------------------
     def start(self, clip: Clip) -> np.ndarray:

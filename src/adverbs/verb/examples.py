@@ -50,12 +50,13 @@ def examples_from_spec(spec: dict[str, Any]) -> tuple[list[Example], list[Adverb
                 name,
                 "file",
             )
-        if reference is not None and not clip.skeleton.same_structure(reference):
-            raise SpecError(path, f"{file.name} is on a different skeleton from {spec['skeleton']}", name, "file")
-        if pending and not clip.skeleton.same_structure(pending[0].part.skeleton):
-            raise SpecError(
-                path, f"{file.name} is on a different skeleton from example {pending[0].ex['name']!r}", name, "file"
-            )
+        for other, what in (
+            (reference, str(spec["skeleton"])),
+            (pending[0].part.skeleton if pending else None, f"example {pending[0].ex['name']!r}" if pending else ""),
+        ):
+            why = None if other is None else other.structure_difference(clip.skeleton)
+            if why is not None:
+                raise SpecError(path, f"{file.name} is on a different skeleton from {what}: {why}", name, "file")
         mirror = ex.get("mirror", False)
         for flag in ("mirror", "refine"):
             if not isinstance(ex.get(flag, False), bool):

@@ -74,8 +74,9 @@ def build_verb(
     bspline.check_num_cp(num_cp)
     first = examples[0]
     for ex in examples[1:]:
-        if not ex.clip.skeleton.same_structure(first.clip.skeleton):
-            raise AdverbsError(f"example {ex.name!r} is on a different skeleton from example {first.name!r}")
+        why = first.clip.skeleton.structure_difference(ex.clip.skeleton)
+        if why is not None:
+            raise AdverbsError(f"example {ex.name!r} is on a different skeleton from example {first.name!r}: {why}")
         if len(ex.keytimes) != len(first.keytimes):
             raise AdverbsError(
                 f"example {ex.name!r} has {len(ex.keytimes)} keytimes, example {first.name!r} has "
