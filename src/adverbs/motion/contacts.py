@@ -119,19 +119,47 @@ def find_contacts(
         raise AdverbsError(
             f"clip {clip.name!r}: no feet found from joint names; name them (ankle and toe joints) explicitly"
         )
-    pts = foot_points(clip, feet)  # (F, N, 2, 3)
-    low = pts[..., 1] - np.percentile(pts[..., 1], 5, axis=0) < height
-    if clip.num_frames > 1:
-        vel = np.gradient(pts[..., [0, 2]], axis=0) * clip.fps
-        still = np.linalg.norm(vel, axis=-1) < speed
-    else:
-        still = np.ones(low.shape, dtype=bool)
-    planted = np.any(low & still, axis=-1)  # (F, N)
+    planted = np.any(_low_and_still(foot_points(clip, feet), clip.fps, height, speed), axis=-1)  # (F, N)
     gap = round(max_gap * clip.fps)
     shortest = max(round(min_duration * clip.fps), 1)
     for i in range(len(feet)):
         planted[:, i] = _clean(planted[:, i], gap, shortest)
     return Contacts(tuple(feet), planted, clip.fps)
+
+
+def point_contacts(
+    clip: Clip,
+    feet: list[Foot] | tuple[Foot, ...],
+    height: float = 0.06,
+    speed: float = 0.6,
+    min_duration: float = 0.05,
+    max_gap: float = 0.07,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Heel and toe of each foot on their own: down masks ``(F, N, 2)`` (the rule of :func:`find_contacts`
+    applied to each point, cleaned the same way) and the points' global positions ``(F, N, 2, 3)``.
+
+    Where :func:`find_contacts` says when a foot bears weight, this says which part of it does: the heel
+    from heel strike until it lifts, the ball (toe joint) until toe-off.
+    """
+    pts = foot_points(clip, feet)
+    down = _low_and_still(pts, clip.fps, height, speed)
+    gap = round(max_gap * clip.fps)
+    shortest = max(round(min_duration * clip.fps), 1)
+    for i in range(len(feet)):
+        for k in range(2):
+            down[:, i, k] = _clean(down[:, i, k], gap, shortest)
+    return down, pts
+
+
+def _low_and_still(pts: np.ndarray, fps: float, height: float, speed: float) -> np.ndarray:
+    """Points ``(F, ..., 3)`` within ``height`` of their own low level (5th percentile) and slower than ``speed``."""
+    low = pts[..., 1] - np.percentile(pts[..., 1], 5, axis=0) < height
+    if len(pts) > 1:
+        vel = np.gradient(pts[..., [0, 2]], axis=0) * fps
+        still = np.linalg.norm(vel, axis=-1) < speed
+    else:
+        still = np.ones(low.shape, dtype=bool)
+    return low & still
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:

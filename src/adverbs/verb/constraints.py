@@ -17,11 +17,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import AdverbsError
+from ..interp import timewarp
 from ..kinematics.skeleton import Skeleton
 from ..motion.clip import Clip
-from ..motion.contacts import find_contacts
+from ..motion.contacts import find_contacts, point_contacts
 
 STANDING = 0.95  # fraction of frames a foot must be down in every example to count as planted throughout
+TOE_DOWN = 0.005  # metres: a ball this close to its contact height is down (the foot is flat)
+NEAR_OPEN = 2  # frames: an example's contact must begin this close to the opening keytime to be its contact
 
 
 @dataclass(frozen=True)
@@ -121,3 +124,180 @@ def phases(constraint: Constraint, keytimes: np.ndarray, duration: float, cyclic
                 out.append((a, b))
         start += cycle
     return out
+
+
+@dataclass(frozen=True)
+class Hold:
+    """How a constraint's effector is held, in generic time (0 to 1 over a cycle or the whole motion).
+
+    A foot lands at ``open`` (heel strike): its heel (the ankle) is held while the foot rolls down
+    onto its ball; from ``toe_down`` the effector (the ball, or toe joint) is held too, and with it the
+    foot's orientation, until ``heel_off``; then the foot turns back to the verb's orientation about
+    the held ball, which is let go at ``close`` (toe-off; ``close > 1`` wraps into the next cycle).
+    ``height`` and ``heel_height`` are the effector's and the ankle's heights above the floor while
+    they are down (the toe joint sits above the sole), measured from the examples; ``None`` for an
+    effector that is not a foot's: it is held from ``open`` and keeps the height the verb gives it.
+    """
+
+    effector: str
+    open: float
+    close: float
+    heel_off: float
+    height: float | None
+    toe_down: float | None = None  # None: the effector is held from ``open``
+    heel_height: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.toe_down is None:
+            object.__setattr__(self, "toe_down", self.open)
+
+    def to_dict(self) -> dict:
+        return {"effector": self.effector, "open": self.open, "close": self.close, "heel_off": self.heel_off,
+                "height": self.height, "toe_down": self.toe_down, "heel_height": self.heel_height}  # fmt: skip
+
+    @classmethod
+    def from_dict(cls, d: dict) -> Hold:
+        def num(x):
+            return None if x is None else float(x)
+
+        return cls(str(d["effector"]), float(d["open"]), float(d["close"]), float(d["heel_off"]), num(d["height"]),
+                   num(d["toe_down"]), num(d["heel_height"]))  # fmt: skip
+
+    def toe_held(self, g: np.ndarray, cyclic: bool) -> np.ndarray:
+        """Whether generic times ``g`` fall where the effector itself is held (``toe_down`` to ``close``)."""
+        return self.inside(g, cyclic) & (self._into(g, cyclic) >= self.toe_down - self.open)
+
+    def _into(self, g: np.ndarray, cyclic: bool) -> np.ndarray:
+        g = np.asarray(g, dtype=float)
+        return (g - self.open) % 1.0 if cyclic else g - self.open
+
+    def inside(self, g: np.ndarray, cyclic: bool) -> np.ndarray:
+        """Whether generic times ``g`` (in ``[0, 1]``) fall in the hold."""
+        g = np.asarray(g, dtype=float)
+        if not cyclic:
+            return (g >= self.open) & ((g < self.close) | (self.close >= 1.0))
+        return (g - self.open) % 1.0 < self.close - self.open
+
+    def flat(self, g: np.ndarray, cyclic: bool) -> np.ndarray:
+        """Whether generic times ``g`` fall where the foot is flat (heel and ball held: ``toe_down`` to ``heel_off``)."""
+        into = self._into(g, cyclic)
+        end = (into < self.heel_off - self.open) | (not cyclic and self.heel_off >= 1.0)
+        return self.toe_held(g, cyclic) & end
+
+
+def default_holds(constraints: Sequence[Constraint], generic: np.ndarray, cyclic: bool) -> list[Hold]:
+    """Holds read from the constraints' keytimes alone (no examples to measure): the effector held from
+    its opening keytime to its closing one, orientation following the verb, height following the verb."""
+    out = []
+    for c in constraints:
+        a, b = float(generic[c.open]), float(generic[c.close])
+        if b <= a:
+            b += 1.0
+        out.append(Hold(c.effector, a, b if (cyclic or c.close < len(generic) - 1) else 1.0, a, None))
+    return out
+
+
+def derive_holds(
+    constraints: Sequence[Constraint],
+    clips: Sequence[Clip],
+    keytimes: np.ndarray,
+    generic: np.ndarray,
+    keytime_names: Sequence[str],
+    cyclic: bool,
+    floor: float,
+    auto: bool,
+    example_names: Sequence[str] | None = None,
+) -> tuple[list[Hold], list[str]]:
+    """Holds of ``constraints`` measured from the examples' own contacts, and warnings.
+
+    For a foot's effector, in each example: the ball's (toe joint's) contact that begins at the opening
+    keytime gives the toe-off, the heel's contact over it the heel-off, both as generic times; their
+    means over the examples are the hold's. ``height`` is the median height of the effector above
+    ``floor`` over those contacts, averaged. Where the closing keytime is a toe-off it is kept exactly;
+    constraints found automatically (``auto``) otherwise close at the measured toe-off, so a run's flight
+    is free. A constraint given by hand that holds the foot well past the examples' toe-off (by more
+    than ``NEAR_OPEN`` frames on average) is kept, with a warning naming it.
+    """
+    skel = clips[0].skeleton
+    names = list(keytime_names)
+    ex_names = list(example_names) if example_names is not None else [c.name for c in clips]
+    feet = skel.feet()
+    contacts = [point_contacts(c, feet) for c in clips]
+    out, warns = [], []
+    base = default_holds(constraints, generic, cyclic)
+    for c, hold in zip(constraints, base):
+        j = skel.index(c.effector)
+        foot = next((i for i, f in enumerate(feet) if j in (f.toe, f.ankle)), None)
+        if foot is None:
+            out.append(hold)
+            continue
+        point = 1 if feet[foot].toe == j else 0
+        spans, heels, heights, slack, landings, heel_heights = [], [], [], [], [], []
+        for e, (clip, (down, pts)) in enumerate(zip(clips, contacts)):
+            k = keytimes[e]
+            f = clip.num_frames
+            g = timewarp.generic_time(np.arange(f) / clip.fps, k, generic)
+            toe, heel = down[:, foot, point], down[:, foot, 0]
+            if cyclic:  # one cycle after the other: a contact at the end goes on at the start
+                g, toe, heel = np.concatenate([g, g + 1.0, [2.0]]), np.tile(toe, 2), np.tile(heel, 2)
+            else:
+                g = np.concatenate([g, [1.0]])
+            o = min(int(round(k[c.open] * clip.fps)), f - 1)
+            run = _run_near(toe, o)
+            if run is None:
+                warns.append(
+                    f"constraint on {c.effector!r}: in example {ex_names[e]!r} the foot is not down at keytime "
+                    f"{c.open} ({names[c.open]!r}); its hold is measured from the other examples"
+                )
+                continue
+            a, b = run
+            spans.append(g[b] - g[o])
+            hr = _run_overlapping(heel, o, b)
+            heels.append(min(max(g[hr[1]] - g[o], 0.0), spans[-1]) if hr is not None else 0.0)
+            heights.append(float(np.median(pts[np.arange(a, b) % f, foot, point, 1])) - floor)
+            # The ball is down once within TOE_DOWN of that height; the heel's height over its own contact.
+            y = pts[np.arange(o, b) % f, foot, point, 1] - floor
+            landings.append(min(g[o + int(np.argmax(y < heights[-1] + TOE_DOWN))] - g[o], heels[-1]))
+            if hr is not None:
+                heel_heights.append(float(np.median(pts[np.arange(*hr) % f, foot, 0, 1])) - floor)
+            slack.append(((hold.close - hold.open) - spans[-1]) * f)  # frames the hand-set hold runs past toe-off
+        if not spans:
+            out.append(hold)
+            continue
+        span, heel_span = float(np.mean(spans)), float(np.mean(heels))
+        closes_at_toe_off = names[c.close].endswith("toe-off")
+        if closes_at_toe_off or not auto:
+            span = hold.close - hold.open
+            if not auto and not closes_at_toe_off and np.mean(slack) > NEAR_OPEN:
+                warns.append(
+                    f"constraint on {c.effector!r} holds the foot until keytime {c.close} ({names[c.close]!r}), "
+                    f"{np.mean(slack):.1f} frames on average after the examples' foot leaves the ground: it will be "
+                    "held through their swing (close it at a toe-off keytime, or let the build find constraints)"
+                )
+        close = hold.open + span
+        if not cyclic and c.close == len(names) - 1 and span >= hold.close - hold.open - 1e-9:
+            close = 1.0
+        heel_off = hold.open + min(heel_span, span)
+        toe_down = min(hold.open + float(np.mean(landings)), heel_off) if point == 1 else hold.open
+        heel_height = float(np.mean(heel_heights)) if heel_heights and point == 1 else None
+        out.append(Hold(c.effector, hold.open, close, heel_off, float(np.mean(heights)), toe_down, heel_height))
+    return out, warns
+
+
+def _run_near(mask: np.ndarray, frame: int) -> tuple[int, int] | None:
+    """The run of ``mask`` that contains ``frame`` or begins within ``NEAR_OPEN`` frames after it."""
+    d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    starts, stops = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
+    for a, b in zip(starts, stops):
+        if a <= frame < b or frame < a <= frame + NEAR_OPEN:
+            return int(a), int(b)
+    return None
+
+
+def _run_overlapping(mask: np.ndarray, start: int, stop: int) -> tuple[int, int] | None:
+    """The first run of ``mask`` that overlaps frames ``[start, stop)``."""
+    d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    for a, b in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)):
+        if a < stop and b > start:
+            return int(a), int(b)
+    return None

@@ -36,7 +36,7 @@ from ..interp import bspline, timewarp
 from ..kinematics.fk import forward_kinematics
 from ..motion.clip import Clip
 from ..motion.encoding import DofEncoding
-from .constraints import Constraint, auto_constraints
+from .constraints import Constraint, auto_constraints, check_constraint, derive_holds
 from .examples import examples_from_spec
 from .spec import SpecError, load_spec
 from .tables import Adverb, Example, ExampleRecord, Verb
@@ -128,6 +128,17 @@ def build_verb(
         constraints = auto_constraints(
             names or [f"keytime {i}" for i in range(len(first.keytimes))], [ex.clip for ex in examples], cyclic
         )
+        auto = True
+    else:
+        auto = False
+        for c in constraints:
+            check_constraint(c, first.clip.skeleton, keytimes.shape[1], cyclic)
+    holds, hold_warnings = derive_holds(
+        constraints, [ex.clip for ex in examples], keytimes, spacing,
+        names or [f"keytime {i}" for i in range(len(first.keytimes))], cyclic, floor, auto, [ex.name for ex in examples],
+    )  # fmt: skip
+    for w in hold_warnings:
+        warnings.warn(f"verb {name!r}: {w}", AdverbsWarning, stacklevel=2)
     return Verb(
         name,
         enc,
@@ -144,6 +155,7 @@ def build_verb(
         spacing,
         smoothing,
         shrinkage,
+        holds,
     )
 
 

@@ -1,15 +1,33 @@
-"""Planted feet: a verb's constraints enforced on its synthesized motion (§3.3).
+"""Planted feet: a verb's constraints enforced on its motion, one frame at a time (§3.3).
 
-When a constraint's opening keytime is crossed, its target is set from where the verb puts the
-effector: its horizontal position then. Until the closing keytime the effector is held there; after
-it, the hold is released over ``release`` seconds (smoothstep), so nothing pops. Heights follow the
-floor: a point the verb carries ``h`` above its own flat ground is put ``h`` above the floor under it,
-and the root follows the floor under itself, so a walk goes up and down a slope; on a floor that is
-not flat each foot is also tilted to the surface. Every frame, :func:`adverbs.kinematics.ik.solve` moves the
-legs (and lowers the root when a target is out of reach); nothing else changes.
+:class:`FootPlanter` keeps, for each of ``C`` creatures and each constrained effector, what the
+planting needs to remember between frames, and :meth:`FootPlanter.step` advances them all by one
+frame. Offline planting (:func:`plant_feet`, :func:`plant_feet_many`) is the same planter run over
+every frame of a clip, then one batched IK solve: it gives the same motion as feeding the frames
+one by one (``tests/test_feet.py``).
 
-:func:`planted_drift` is the measure shared by tests, benchmarks and ``adverbs evaluate``: per contact
-phase, the largest horizontal distance of the planted effector from where the phase began.
+Per effector, with ``g`` the frame's generic time and :class:`~adverbs.verb.constraints.Hold` ``h``:
+
+* **Held** (``h.open ≤ g < h.close``): when the hold opens, the target is where the foot is shown
+  then, horizontally, and ``h.height`` (its height above the sole, from the examples) above the
+  floor under it — the floor, not the verb, says how high a planted foot is. The foot's orientation
+  is held too until ``h.heel_off``, so the heel stays where it landed; from heel-off to toe-off it
+  turns back to the verb's (smoothstep in generic time) about the held ball of the foot.
+* **Free** (swing, flight): the verb's effector, lowered by how far the verb's foot hovered above
+  its contact height at its last landing (at extrapolated adverbs the verb can lift the whole stance
+  off its floor), never below the floor plus the contact height.
+* **Switching** between the two is inertialized: the difference between where the foot was shown and
+  where the new rule puts it is an offset that decays to zero as a critically damped spring
+  (``x(t) = (x₀ + (v₀ + y x₀) t) e^{−y t}``). At release ``v₀`` cancels the verb's foot velocity,
+  so the foot leaves the ground from rest, continuous in position and speed; the vertical part decays
+  faster than the horizontal one, so a released foot lifts before it travels. At landing the
+  horizontal offset is zero (the target is where the foot is) and the vertical one settles.
+
+The legs are then solved by :func:`adverbs.kinematics.ik.solve` with each foot's target and wanted
+orientation; a target out of reach lowers the root. Heights follow the floor: a point the verb
+carries ``h`` above its own flat ground is put ``h`` above the floor under it, and the pelvis rides
+the floor under itself, so a walk goes up and down a slope; on a floor that is not flat the feet are
+tilted to the surface.
 """
 
 from __future__ import annotations
@@ -19,119 +37,317 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import AdverbsError
+from ..interp import timewarp
 from ..kinematics import ik, quat
+from ..kinematics.fk import forward_kinematics
 from ..kinematics.floor import FlatFloor, Floor, tilt
 from ..motion.clip import Clip
-from .constraints import phases
 from .tables import Verb
 
-RELEASE = 1.0  # seconds: the longest a closed constraint takes to let go (it is done by the next landing)
+LIFT_HALFLIFE = 0.02  # seconds: the vertical part of a released foot's offset halves this fast
+SWING_HALFLIFE = 0.1  # seconds: the horizontal part, slower, so the foot lifts before it travels
+SETTLE_HALFLIFE = 0.03  # seconds: a landing foot's height settles onto the floor this fast
+_LN2 = float(np.log(2.0))
+
+
+def _spring(x0: np.ndarray, v0: np.ndarray, t: np.ndarray, halflife: np.ndarray | float) -> np.ndarray:
+    """Critically damped decay of an offset ``x0`` with velocity ``v0`` after ``t`` seconds."""
+    y = 2.0 * _LN2 / halflife
+    return (x0 + (v0 + y * x0) * t) * np.exp(-y * t)
+
+
+_HALFLIVES = np.array([SWING_HALFLIFE, LIFT_HALFLIFE, SWING_HALFLIFE])
+FREE, HEEL, BALL = 0, 1, 2  # what a foot is doing: swinging, landed on its heel, on its ball
 
 
 @dataclass
 class PlantingReport:
-    """What planting did: contact phases per constraint (frames ``[start, stop)``) and what it could not do."""
+    """What planting did: hold phases per effector (frames ``[start, stop)``), and what it could not do."""
 
     phases: list[list[tuple[int, int]]]
     root_drop: np.ndarray  # (F,) metres
     unreachable: int  # frames × effectors whose target stayed out of reach
     warnings: list[str] = field(default_factory=list)
+    flat: list[list[tuple[int, int]]] = field(default_factory=list)  # where each foot's orientation is held
+
+
+class FootPlanter:
+    """Planted feet for ``creatures`` creatures of one verb, advanced one frame at a time.
+
+    State per creature and effector ``(C, L)``: whether it is held, its target and held orientation,
+    the offset being decayed (start, velocity, time since), the verb's hover at the last landing and
+    the verb's effector position in the previous frame (for its velocity).
+    """
+
+    def __init__(self, verb: Verb, creatures: int = 1, floor: Floor | None = None):
+        if not verb.constraints:
+            raise AdverbsError(f"verb {verb.name!r} has no constraints: nothing to plant")
+        self.verb = verb
+        self.floor = FlatFloor(verb.floor) if floor is None else floor
+        self.chains = verb.leg_chains
+        self.tips = np.array(effector_joints(verb))
+        self.heights = np.array([np.nan if h.height is None else h.height for h in verb.holds])
+        self.opens = np.array([h.open for h in verb.holds])
+        self.closes = np.array([h.close for h in verb.holds])
+        self.heel_offs = np.array([h.heel_off for h in verb.holds])
+        self.toe_downs = np.array([h.toe_down for h in verb.holds])
+        self.heel_heights = np.array([np.nan if h.heel_height is None else h.heel_height for h in verb.holds])
+        c, n = int(creatures), len(verb.holds)
+        if c < 1:
+            raise AdverbsError(f"creatures must be at least 1, got {creatures}")
+        self.creatures = c
+        self.started = False
+        self.held = np.zeros((c, n), dtype=bool)
+        self.mode = np.full((c, n), FREE)
+        self.target = np.zeros((c, n, 3))
+        self.held_rot = np.tile(np.eye(3), (c, n, 1, 1))
+        self.offset = np.zeros((c, n, 3))
+        self.offset_vel = np.zeros((c, n, 3))
+        self.since = np.zeros((c, n))
+        self.settle = np.zeros((c, n), dtype=bool)  # the offset being decayed is a landing's
+        self.hover = np.zeros((c, n))  # the verb's contact level, lowering the free foot
+        self.ground = np.zeros((c, n))  # its lowest point over the current hold: the next hover
+        self.prev_free = np.zeros((c, n, 3))
+
+    # ----- the state machine ------------------------------------------------------------------
+    def _modes(self, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """What each effector does at generic times ``g (C,)``: ``(C, L)`` modes (:data:`FREE`, :data:`HEEL`:
+        the heel held while the foot rolls down, :data:`BALL`: the ball held) and how far each foot has
+        turned back to the verb's orientation (0 until heel-off, 1 at toe-off; smoothstep)."""
+        g = g[:, None]
+        span, heel = self.closes - self.opens, self.heel_offs - self.opens
+        if self.verb.cyclic:
+            into = (g - self.opens) % 1.0
+            inside = into < span
+        else:
+            into = g - self.opens
+            inside = (into >= 0.0) & ((g < self.closes) | (self.closes >= 1.0))
+        mode = np.where(inside, np.where(into >= self.toe_downs - self.opens, BALL, HEEL), FREE)
+        s = np.clip((into - heel) / np.maximum(span - heel, 1e-12), 0.0, 1.0)
+        return mode, s * s * (3.0 - 2.0 * s)
+
+    def _tilt(self, xz: np.ndarray) -> np.ndarray:
+        """The floor's tilt ``(..., 3, 3)`` under points ``xz (..., 2)`` (identity on a flat floor)."""
+        if self.floor.is_flat:
+            return np.broadcast_to(np.eye(3), xz.shape[:-1] + (3, 3))
+        return tilt(self.floor.normal(xz))
+
+    def targets(
+        self, free_pos: np.ndarray, free_rot: np.ndarray, generic: np.ndarray, dt: float
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Advance the state by one frame; the effectors' targets ``(C, L, 3)`` and wanted foot orientations ``(C, L, 3, 3)``.
+
+        ``free_pos (C, L, 3)`` and ``free_rot (C, L, 3, 3)``: where the verb puts each effector and the
+        global orientation of its foot (the chain's end) this frame; ``generic (C,)``: the frame's
+        generic time; ``dt``: seconds since the previous frame. The orientations include the floor's tilt.
+        """
+        verb, floor, tip = self.verb, self.floor, self.chains.tip_offset
+        follows = np.broadcast_to(np.isnan(self.heights), self.held.shape)  # effectors that keep the verb's height
+        height = np.where(follows, 0.0, self.heights)
+        heel_height = np.broadcast_to(self.heel_heights, follows.shape)
+        mode, turn = self._modes(np.asarray(generic, dtype=float))
+        inside = mode != FREE
+        # How far the verb's effector is above its contact height (its own floor at these adverbs).
+        lift = np.where(follows, 0.0, free_pos[..., 1] - verb.floor - height)
+        flat = (mode == BALL) & (turn == 0.0)
+        if not self.started:  # the verb's level from the feet that are flat now, else none
+            down = np.where(flat, lift, np.inf).min(axis=1, keepdims=True)
+            self.hover[:] = np.where(flat, lift, np.where(np.isfinite(down), down, 0.0))
+            self.ground[:] = np.inf
+            self.prev_free[:] = free_pos
+            self.started = True
+        self.since += dt
+        vel = (free_pos - self.prev_free) / dt if dt > 0 else np.zeros_like(free_pos)
+        opening, closing = inside & (self.mode == FREE), ~inside & (self.mode != FREE)
+        # The verb's own level at these adverbs: the lowest its foot gets while flat, taken at toe-off.
+        self.ground = np.where(opening, np.inf, self.ground)
+        self.ground = np.where(flat, np.minimum(self.ground, lift), self.ground)
+        self.hover = np.where(closing & np.isfinite(self.ground), self.ground, self.hover)
+        # Where the free rule puts the foot: the verb's, lowered by its hover, on the floor.
+        base = free_pos.copy()
+        base[..., 1] = floor.height(free_pos[..., [0, 2]]) + (free_pos[..., 1] - verb.floor) - self.hover
+        free_wanted = self._tilt(base[..., [0, 2]]) @ free_rot
+        shown, _ = self._shown(base, height, follows, free_rot, free_wanted, turn)  # before anything switches
+        rocking = opening & (mode == HEEL)
+        if rocking.any():  # heel strike: the ankle is held where it is shown, at its height over the floor
+            ankle = shown[rocking] - np.einsum("nij,nj->ni", free_wanted[rocking], np.broadcast_to(tip, shown.shape)[rocking])
+            self._land(rocking, ankle, heel_height[rocking])
+        balls = (mode == BALL) & (self.mode != BALL)
+        if balls.any():  # foot flat (or a landing on the ball): the ball and the orientation are held
+            self._land(balls, shown[balls], np.where(follows[balls], np.nan, height[balls]))
+            self.held_rot[balls] = free_rot[balls]
+        if closing.any():
+            self.offset[closing] = shown[closing] - base[closing]  # let go from where it was shown
+            self.offset_vel[closing] = -vel[closing]  # shown at rest: the verb's velocity cancelled
+            self.since[closing] = 0.0
+            self.settle[closing] = False
+        self.mode = mode
+        self.held = inside
+        self.prev_free[:] = free_pos
+        return self._shown(base, height, follows, free_rot, free_wanted, turn)
+
+    def _land(self, which: np.ndarray, point: np.ndarray, height: np.ndarray) -> None:
+        """Hold ``point (n, 3)`` for the effectors in ``which``: where it is, ``height`` above the floor (NaN:
+        where it is); the height it had is an offset that settles."""
+        target = point.copy()
+        level = self.floor.height(point[:, [0, 2]]) + np.where(np.isnan(height), 0.0, height)
+        target[:, 1] = np.where(np.isnan(height), point[:, 1], level)
+        self.target[which] = target
+        self.offset[which] = 0.0
+        self.offset[which, 1] = point[:, 1] - target[:, 1]
+        self.offset_vel[which] = 0.0
+        self.since[which] = 0.0
+        self.settle[which] = True
+
+    def _shown(self, base, height, follows, free_rot, free_wanted, turn) -> tuple[np.ndarray, np.ndarray]:
+        """Where each effector is shown in its current mode, and its foot's wanted orientation."""
+        shown = base + self._offset()
+        low = self.floor.height(shown[..., [0, 2]]) + height
+        shown[..., 1] = np.where(follows, shown[..., 1], np.maximum(shown[..., 1], low))
+        held_at = self._shown_held()
+        held_tilt = self._tilt(self.target[..., [0, 2]])
+        wanted = np.where(
+            (self.mode == FREE)[..., None, None],
+            free_wanted,
+            held_tilt @ np.where((self.mode == HEEL)[..., None, None], free_rot, _turn(self.held_rot, free_rot, turn)),
+        )
+        rocker = held_at + np.einsum("...ij,...j->...i", wanted, self.chains.tip_offset)
+        shown = np.where((self.mode == BALL)[..., None], held_at, np.where((self.mode == HEEL)[..., None], rocker, shown))
+        return shown, wanted
+
+    def _offset(self) -> np.ndarray:
+        """The decaying offset of the free rule now, ``(C, L, 3)`` (zero where a landing's is decaying)."""
+        hl = np.where(self.settle[..., None], SETTLE_HALFLIFE, _HALFLIVES)
+        x = _spring(self.offset, self.offset_vel, self.since[..., None], hl)
+        return np.where(self.settle[..., None], 0.0, x)
+
+    def _held_offset(self) -> np.ndarray:
+        """The decaying height offset of a landing foot now, ``(C, L, 3)``."""
+        x = _spring(self.offset, self.offset_vel, self.since[..., None], SETTLE_HALFLIFE)
+        return np.where(self.settle[..., None], x, 0.0)
+
+    def _shown_held(self) -> np.ndarray:
+        """Where a held foot is shown: its target plus the landing's settling height."""
+        return self.target + self._held_offset()
+
+    # ----- one frame, legs solved -------------------------------------------------------------
+    def step(
+        self, rotations: np.ndarray, translations: np.ndarray, generic: np.ndarray, dt: float
+    ) -> tuple[np.ndarray, np.ndarray, ik.IKResult]:
+        """Plant the feet of one frame of ``C`` creatures: local ``rotations (C, J, 4)``, ``translations (C, J, 3)``
+        of the verb's motion, their generic times ``(C,)`` and the seconds since the previous frame.
+
+        Returns the planted rotations and translations and the IK result (root drop, misses).
+        """
+        rotations = np.asarray(rotations, dtype=float)
+        translations = np.asarray(translations, dtype=float)
+        gpos, grot = forward_kinematics(self.verb.skeleton.parents, rotations, translations)
+        free_pos, free_rot = gpos[:, self.tips], quat.to_matrix(grot[:, self.chains.end])
+        targets, wanted = self.targets(free_pos, free_rot, generic, dt)
+        risen = _ride_floor(self.verb, self.chains, self.floor, translations, gpos, grot)
+        result = ik.solve(self.chains, rotations, risen, targets, self._tilts(wanted, free_rot))
+        return result.rotations, result.translations, result
+
+    @staticmethod
+    def _tilts(wanted: np.ndarray, free_rot: np.ndarray) -> np.ndarray:
+        """What the IK premultiplies each foot's orientation by to make it ``wanted``: ``wanted · free⁻¹``."""
+        return wanted @ np.swapaxes(free_rot, -1, -2)
+
+
+def _turn(held: np.ndarray, free: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Rotations ``(..., 3, 3)`` turned from ``held`` to ``free`` by weights ``w (...)`` (slerp)."""
+    if not np.any(w > 0):
+        return held
+    q = quat.slerp(quat.from_matrix(held), quat.from_matrix(free), w)
+    return quat.to_matrix(q)
+
+
+def _ride_floor(verb: Verb, chains: ik.LegChains, floor: Floor, translations, gpos, grot) -> np.ndarray:
+    """Translations with the pelvis raised along world up by the floor's height under the body root."""
+    t = np.array(translations, dtype=float)
+    lift = chains.above[-1]
+    rise = floor.height(gpos[..., verb.encoding.body_root, :][..., [0, 2]]) - verb.floor
+    up = np.broadcast_to([0.0, 1.0, 0.0], rise.shape + (3,))
+    parent = verb.skeleton.parents[lift]
+    if parent >= 0:
+        up = quat.rotate(quat.inv(grot[..., parent, :]), up)
+    t[..., lift, :] += rise[..., None] * up
+    return t
+
+
+def frame_generic(verb: Verb, keytimes: np.ndarray, times: np.ndarray) -> np.ndarray:
+    """Generic time of each clock time ``times (F,)`` of a motion of ``verb`` with ``keytimes (N,)``."""
+    k = np.asarray(keytimes, dtype=float)
+    t = np.asarray(times, dtype=float)
+    t = t % k[-1] if verb.cyclic else np.clip(t, 0.0, k[-1])
+    g = timewarp.generic_time(t, k, verb.generic_keytimes)
+    if not verb.cyclic:
+        g = np.where(np.asarray(times) >= k[-1] - 1e-9, 1.0, g)
+    return g
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    return list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist()))
+
+
+def phase_masks(verb: Verb, keytimes: np.ndarray, clip: Clip) -> tuple[np.ndarray, np.ndarray]:
+    """Where each effector itself is held (from foot-flat to toe-off) and where its foot is flat (heel and
+    ball held, foot-flat to heel-off): masks ``(F, L)`` over the frames of ``clip`` (a motion of ``verb``)."""
+    g = frame_generic(verb, keytimes, np.arange(clip.num_frames) / clip.fps)
+    held = np.stack([h.toe_held(g, verb.cyclic) for h in verb.holds], axis=1)
+    flat = np.stack([h.flat(g, verb.cyclic) for h in verb.holds], axis=1)
+    return held, flat
 
 
 def phase_frames(verb: Verb, keytimes: np.ndarray, clip: Clip) -> list[list[tuple[int, int]]]:
-    """Each constraint's contact phases in frames of ``clip`` (a motion of ``verb`` with ``keytimes``)."""
-    out = []
-    for c in verb.constraints:
-        spans = phases(c, keytimes, clip.duration + 0.5 / clip.fps, verb.cyclic)
-        frames = []
-        for a, b in spans:
-            fa = int(np.ceil(a * clip.fps - 1e-6))
-            fb = min(int(np.ceil(b * clip.fps - 1e-6)), clip.num_frames)
-            if fb > fa:
-                frames.append((fa, fb))
-        out.append(frames)
-    return out
+    """Each effector's held phases in frames ``[start, stop)`` of ``clip`` (a motion of ``verb`` with ``keytimes``)."""
+    held, _ = phase_masks(verb, keytimes, clip)
+    return [_runs(held[:, i]) for i in range(held.shape[1])]
 
 
 def plant_feet(
-    verb: Verb, clip: Clip, keytimes: np.ndarray, floor: Floor | None = None, release: float = RELEASE
+    verb: Verb, clip: Clip, keytimes: np.ndarray, floor: Floor | None = None
 ) -> tuple[Clip, PlantingReport]:
     """Enforce ``verb``'s constraints on ``clip`` (synthesized by it with ``keytimes``) on ``floor``.
 
-    Every frame is solved in one batched call. A released foot goes back to the verb's motion in
-    joint space: its chain's rotations turn (slerp, smoothstep weight) from the last held
-    configuration to the free one over the swing, and a root drop the hold needed fades out the
-    same way, so no joint speeds up where a constraint closes.
+    The :class:`FootPlanter` run over the frames in order, then every frame's legs in one batched IK
+    solve: the same motion as planting one frame at a time.
     """
-    return plant_feet_many(verb, [(clip, keytimes)], floor, release)[0]
+    return plant_feet_many(verb, [(clip, keytimes)], floor)[0]
 
 
 def plant_feet_many(
-    verb: Verb,
-    motions: Sequence[tuple[Clip, np.ndarray]],
-    floor: Floor | None = None,
-    release: float = RELEASE,
+    verb: Verb, motions: Sequence[tuple[Clip, np.ndarray]], floor: Floor | None = None
 ) -> list[tuple[Clip, PlantingReport]]:
     """:func:`plant_feet` for many creatures' motions of one verb (each with its own adverbs, keytimes
-    and length): every frame of every creature goes through the same two batched IK solves.
+    and length): every frame of every creature goes through one batched IK solve.
     """
     floor = FlatFloor(verb.floor) if floor is None else floor
     if not verb.constraints:
         return [(clip, PlantingReport([], np.zeros(clip.num_frames), 0)) for clip, _ in motions]
-    chains = verb.leg_chains
-    tips = effector_joints(verb)
-    held, trans, spans, releases, starts = [], [], [], [], [0]
+    rots, trans, targets, tilts, starts = [], [], [], [], [0]
     for clip, keytimes in motions:
-        f, o = clip.num_frames, starts[-1]
+        planter = FootPlanter(verb, 1, floor)
         gpos, grot = clip.forward_kinematics()
-        phases_c = phase_frames(verb, keytimes, clip)
-        time = np.arange(f) / clip.fps
-        target = np.empty((f, len(tips), 3))  # where each effector goes: held in its phases, on the floor
-        for i, (tip, frames) in enumerate(zip(tips, phases_c)):
-            xz = gpos[:, tip][:, [0, 2]].copy()
-            for n, (a, b) in enumerate(frames):
-                xz[a:b] = xz[a]
-                # Released over the swing, until the next landing (or ``release`` seconds): the weights
-                # follow that whole span even where the clip ends first, so the last frames do not jump.
-                span = min(frames[n + 1][0] if n + 1 < len(frames) else b + release * clip.fps, b + release * clip.fps)
-                until = min(int(np.ceil(span)), f)
-                if until > b:
-                    s = (time[b:until] - time[b - 1]) / ((span - (b - 1)) / clip.fps)
-                    releases.append((i, o + b, o + until, s * s * (3.0 - 2.0 * s)))
-            target[:, i, [0, 2]] = xz
-            target[:, i, 1] = floor.height(xz) + (gpos[:, tip, 1] - verb.floor)
-        # The pelvis rides the floor under it: raised along world up, in its parent's frame.
-        t = clip.translations.copy()
-        lift = chains.above[-1]
-        rise = floor.height(gpos[:, verb.encoding.body_root][:, [0, 2]]) - verb.floor
-        up = np.broadcast_to([0.0, 1.0, 0.0], (f, 3))
-        parent = verb.skeleton.parents[lift]
-        if parent >= 0:
-            up = quat.rotate(quat.inv(grot[:, parent]), up)
-        t[:, lift] += rise[:, None] * up
-        held.append(target)
-        trans.append(t)
-        spans.append(phases_c)
-        starts.append(o + f)
-
-    rotations = np.concatenate([clip.rotations for clip, _ in motions])
-    translations = np.concatenate(trans)
-    targets = np.concatenate(held)
-    tilts = None if floor.is_flat else tilt(floor.normal(targets[..., [0, 2]]))
-    first = ik.solve(chains, rotations, translations, targets, tilts)
-    # A drop the hold needed fades out over the release instead of ending at once.
-    min_drop = first.root_drop.copy()
-    for _, b, until, w in releases:
-        min_drop[b:until] = np.maximum(min_drop[b:until], (1.0 - w) * first.root_drop[b - 1])
-    result = ik.solve(chains, rotations, translations, targets, tilts, min_drop=min_drop)
-    rotations = result.rotations
-    for i, b, until, w in releases:
-        joints = [chains.upper[i], chains.middle[i], chains.end[i]]
-        start = np.broadcast_to(rotations[b - 1, joints], (until - b, len(joints), 4))
-        rotations[b:until, joints] = quat.slerp(start, rotations[b:until, joints], w[:, None])
-
+        free_pos, free_rot = gpos[:, planter.tips], quat.to_matrix(grot[:, planter.chains.end])
+        g = frame_generic(verb, keytimes, np.arange(clip.num_frames) / clip.fps)
+        tg = np.empty_like(free_pos)
+        wanted = np.empty_like(free_rot)
+        for f in range(clip.num_frames):
+            a, b = planter.targets(free_pos[f : f + 1], free_rot[f : f + 1], g[f : f + 1], 1.0 / clip.fps)
+            tg[f], wanted[f] = a[0], b[0]
+        rots.append(clip.rotations)
+        trans.append(_ride_floor(verb, planter.chains, floor, clip.translations, gpos, grot))
+        targets.append(tg)
+        tilts.append(planter._tilts(wanted, free_rot))
+        starts.append(starts[-1] + clip.num_frames)
+    result = ik.solve(
+        verb.leg_chains, np.concatenate(rots), np.concatenate(trans), np.concatenate(targets), np.concatenate(tilts)
+    )
     out = []
-    for (clip, _), phases_c, a, b in zip(motions, spans, starts[:-1], starts[1:]):
+    for (clip, keytimes), a, b in zip(motions, starts[:-1], starts[1:]):
         unreachable = int(np.count_nonzero(result.unreachable[a:b]))
         warnings = []
         if unreachable:
@@ -139,8 +355,13 @@ def plant_feet_many(
                 f"{unreachable} effector-frames could not reach their targets (largest miss "
                 f"{1000 * result.residual[a:b].max():.0f} mm); the pose was left as close as it gets"
             )
-        planted = clip.replace(rotations=rotations[a:b], translations=result.translations[a:b])
-        out.append((planted, PlantingReport(phases_c, result.root_drop[a:b], unreachable, warnings)))
+        planted = clip.replace(rotations=result.rotations[a:b], translations=result.translations[a:b])
+        held, flat = phase_masks(verb, keytimes, clip)
+        report = PlantingReport(
+            [_runs(held[:, i]) for i in range(held.shape[1])], result.root_drop[a:b], unreachable, warnings,
+            [_runs(flat[:, i]) for i in range(flat.shape[1])],
+        )  # fmt: skip
+        out.append((planted, report))
     return out
 
 

@@ -18,11 +18,11 @@ import numpy as np
 from ..errors import AdverbsError
 from ..kinematics.skeleton import Skeleton
 from ..motion.encoding import DofEncoding
-from .constraints import Constraint
+from .constraints import Constraint, Hold
 from .tables import Adverb, ExampleRecord, Verb
 
-FORMAT = "adverbs-verb"  # 2 added keytime names, constraints, floor; 3 generic keytimes, smoothing
-VERSION = 3
+FORMAT = "adverbs-verb"  # 2 added keytime names, constraints, floor; 3 generic keytimes, smoothing; 4 holds
+VERSION = 4
 
 
 def save_verb(verb: Verb, path: str | Path) -> None:
@@ -42,6 +42,7 @@ def save_verb(verb: Verb, path: str | Path) -> None:
         "num_cp": verb.num_cp,
         "keytime_names": list(verb.keytime_names),
         "constraints": [c.to_dict() for c in verb.constraints],
+        "holds": [h.to_dict() for h in verb.holds],
         "floor": verb.floor,
         "smoothing": verb.smoothing,
         "shrinkage": verb.shrinkage,
@@ -169,6 +170,7 @@ def load_verb(path: str | Path) -> Verb:
             arrays["generic_keytimes"],
             float(meta["smoothing"]),
             float(meta["shrinkage"]),
+            [Hold.from_dict(h) for h in meta["holds"]],
         )
     except AdverbsError as e:
         raise AdverbsError(f"{path}: {e}") from None

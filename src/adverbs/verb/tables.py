@@ -36,7 +36,7 @@ from ..kinematics.skeleton import Skeleton
 from ..motion.clip import Clip
 from ..motion.encoding import DofEncoding
 from . import sampling, synthesis
-from .constraints import Constraint, check_constraint
+from .constraints import Constraint, Hold, check_constraint, default_holds
 
 
 @dataclass(frozen=True)
@@ -97,6 +97,9 @@ class Verb:
     coefficients : (E, NumCP, D) B-spline control points of every DOF of every example
     encoding : DofEncoding (the skeleton is ``encoding.skeleton``)
     constraints : the kinematic constraints (feet held between keytimes)
+    holds : how the planter holds each constraint's effector, in generic time, with the effector's
+        height above the floor while down (measured from the examples' contacts at build; by default
+        read from the constraints' keytimes alone)
     floor : height of the ground the examples stand on, metres
     generic_keytimes : (N,) where each keytime sits in generic time, from 0 to 1, shared by every
         example (default: evenly spaced, the paper's; see :mod:`adverbs.interp.timewarp`)
@@ -125,6 +128,7 @@ class Verb:
     generic_keytimes: np.ndarray | None = None
     smoothing: float | str = 0.0
     shrinkage: float | str = 0.0
+    holds: tuple[Hold, ...] = ()
     interpolator: AdverbInterpolator = field(init=False, repr=False)
     log_intervals: np.ndarray = field(init=False, repr=False)
     segments: np.ndarray = field(init=False, repr=False)
@@ -152,6 +156,10 @@ class Verb:
             raise AdverbsError(f"verb {name!r}: {len(self.keytime_names)} keytime names for {n} keytimes")
         for c in self.constraints:
             check_constraint(c, enc.skeleton, n, self.cyclic)
+        holds = tuple(self.holds) or tuple(default_holds(self.constraints, self.generic_keytimes, self.cyclic))
+        if [h.effector for h in holds] != [c.effector for c in self.constraints]:
+            raise AdverbsError(f"verb {name!r}: {len(holds)} holds for {len(self.constraints)} constraints")
+        put(self, "holds", holds)
         e = len(self.examples)
         if self.points.shape != (e, len(self.adverbs)) or self.keytimes_table.shape[0] != e:
             raise AdverbsError(f"verb {name!r}: tables disagree on the number of examples or adverbs")
