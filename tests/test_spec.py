@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import pytest
 from conftest import BANDAI, CMU, SPECS
 
@@ -77,6 +79,24 @@ def test_examples_by_different_performers_name_the_bone(tmp_path):
     path = spec(tmp_path, example("a", WALK, "adverbs = { mood = 0 }"), example("b", other, "adverbs = { mood = 1 }"))
     err = fails(path, "b", "file", "different skeleton from example 'a'")
     assert "bone 'lfemur'→'ltibia' differs by 20.0 mm" in err.reason and "0.440 m long, not 0.420 m" in err.reason
+
+
+def test_skeleton_differences_are_named():
+    from adverbs.io.bvh import read_bvh
+
+    skel = read_bvh(WALK).skeleton
+    assert skel.structure_difference(read_bvh(FAST).skeleton) is None
+    names = list(skel.names)
+    names[3] = "left_shin"
+    assert skel.structure_difference(replace(skel, names=tuple(names))) == f"joint 4 is 'left_shin', not {skel.names[3]!r}"
+    channels = list(skel.channels)
+    channels[2] = ("Xrotation", "Yrotation", "Zrotation")
+    why = skel.structure_difference(replace(skel, channels=tuple(channels)))
+    assert why.startswith(f"joint {skel.names[2]!r} has channels Xrotation Yrotation Zrotation, not ")
+    parents = skel.parents.copy()
+    parents[2] = 0
+    why = skel.structure_difference(replace(skel, parents=parents))
+    assert why == f"joint {skel.names[2]!r} hangs from {skel.names[0]!r}, not {skel.names[1]!r}"
 
 
 def test_different_keytime_counts(tmp_path):

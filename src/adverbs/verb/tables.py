@@ -174,7 +174,10 @@ class Verb:
             linear=[not x.refine for x in self.examples],
             smoothing=self.smoothing,
             shrinkage=self.shrinkage,
-            values=np.concatenate([coef.reshape(e, -1), log_intervals], axis=1),
+            # What "auto" cross-validates on; a fixed λ, μ (every loaded verb) needs no copy of the tables.
+            values=np.concatenate([coef.reshape(e, -1), log_intervals], axis=1)
+            if "auto" in (self.smoothing, self.shrinkage)
+            else None,
         )
         put(self, "interpolator", ip)
         put(self, "smoothing", float(ip.smoothing))  # "auto" resolved: what a saved verb keeps
