@@ -163,26 +163,10 @@ class Hold:
         return cls(str(d["effector"]), float(d["open"]), float(d["close"]), float(d["heel_off"]), num(d["height"]),
                    num(d["toe_down"]), num(d["heel_height"]))  # fmt: skip
 
-    def toe_held(self, g: np.ndarray, cyclic: bool) -> np.ndarray:
-        """Whether generic times ``g`` fall where the effector itself is held (``toe_down`` to ``close``)."""
-        return self.inside(g, cyclic) & (self._into(g, cyclic) >= self.toe_down - self.open)
-
-    def _into(self, g: np.ndarray, cyclic: bool) -> np.ndarray:
-        g = np.asarray(g, dtype=float)
-        return (g - self.open) % 1.0 if cyclic else g - self.open
-
-    def inside(self, g: np.ndarray, cyclic: bool) -> np.ndarray:
-        """Whether generic times ``g`` (in ``[0, 1]``) fall in the hold."""
-        g = np.asarray(g, dtype=float)
-        if not cyclic:
-            return (g >= self.open) & ((g < self.close) | (self.close >= 1.0))
-        return (g - self.open) % 1.0 < self.close - self.open
-
-    def flat(self, g: np.ndarray, cyclic: bool) -> np.ndarray:
-        """Whether generic times ``g`` fall where the foot is flat (heel and ball held: ``toe_down`` to ``heel_off``)."""
-        into = self._into(g, cyclic)
-        end = (into < self.heel_off - self.open) | (not cyclic and self.heel_off >= 1.0)
-        return self.toe_held(g, cyclic) & end
+    @property
+    def times(self) -> tuple[float, float, float]:
+        """Generic times of the foot flat, the heel-off and the toe-off."""
+        return (self.toe_down, self.heel_off, self.close)
 
 
 def default_holds(constraints: Sequence[Constraint], generic: np.ndarray, cyclic: bool) -> list[Hold]:
@@ -207,12 +191,14 @@ def derive_holds(
     floor: float,
     auto: bool,
     example_names: Sequence[str] | None = None,
-) -> tuple[list[Hold], list[str]]:
-    """Holds of ``constraints`` measured from the examples' own contacts, and warnings.
+) -> tuple[list[Hold], np.ndarray, list[str]]:
+    """Holds of ``constraints`` measured from the examples' own contacts, each example's, and warnings.
 
     For a foot's effector, in each example: the ball's (toe joint's) contact that begins at the opening
-    keytime gives the toe-off, the heel's contact over it the heel-off, both as generic times; their
-    means over the examples are the hold's. ``height`` is the median height of the effector above
+    keytime gives the toe-off (and the frame its height comes within ``TOE_DOWN`` of contact, the foot
+    flat), the heel's contact over it the heel-off, as generic times after the opening: ``table (E, L, 3)``
+    holds each example's (foot flat, heel-off, toe-off); the verb blends them with its weights as it
+    blends keytimes, and the holds have their means. ``height`` is the median height of the effector above
     ``floor`` over those contacts, averaged. Where the closing keytime is a toe-off it is kept exactly;
     constraints found automatically (``auto``) otherwise close at the measured toe-off, so a run's flight
     is free. A constraint given by hand that holds the foot well past the examples' toe-off (by more
@@ -223,16 +209,19 @@ def derive_holds(
     ex_names = list(example_names) if example_names is not None else [c.name for c in clips]
     feet = skel.feet()
     contacts = [point_contacts(c, feet) for c in clips]
-    out, warns = [], []
+    out, tables, warns = [], [], []
     base = default_holds(constraints, generic, cyclic)
     for c, hold in zip(constraints, base):
         j = skel.index(c.effector)
         foot = next((i for i, f in enumerate(feet) if j in (f.toe, f.ankle)), None)
         if foot is None:
             out.append(hold)
+            tables.append(np.tile([0.0, 0.0, hold.close - hold.open], (len(clips), 1)))
             continue
         point = 1 if feet[foot].toe == j else 0
-        spans, heels, heights, slack, landings, heel_heights = [], [], [], [], [], []
+        e_count = len(clips)
+        table = np.full((e_count, 3), np.nan)  # per example: foot flat, heel-off, toe-off, generic time after open
+        heights, heel_heights, slack = [], [], []
         for e, (clip, (down, pts)) in enumerate(zip(clips, contacts)):
             k = keytimes[e]
             f = clip.num_frames
@@ -251,37 +240,43 @@ def derive_holds(
                 )
                 continue
             a, b = run
-            spans.append(g[b] - g[o])
+            span = g[b] - g[o]
             hr = _run_overlapping(heel, o, b)
-            heels.append(min(max(g[hr[1]] - g[o], 0.0), spans[-1]) if hr is not None else 0.0)
+            heel_span = min(max(g[hr[1]] - g[o], 0.0), span) if hr is not None else 0.0
             heights.append(float(np.median(pts[np.arange(a, b) % f, foot, point, 1])) - floor)
             # The ball is down once within TOE_DOWN of that height; the heel's height over its own contact.
             y = pts[np.arange(o, b) % f, foot, point, 1] - floor
-            landings.append(min(g[o + int(np.argmax(y < heights[-1] + TOE_DOWN))] - g[o], heels[-1]))
+            landing = min(g[o + int(np.argmax(y < heights[-1] + TOE_DOWN))] - g[o], heel_span)
+            table[e] = landing if point == 1 else 0.0, heel_span, span
             if hr is not None:
                 heel_heights.append(float(np.median(pts[np.arange(*hr) % f, foot, 0, 1])) - floor)
-            slack.append(((hold.close - hold.open) - spans[-1]) * f)  # frames the hand-set hold runs past toe-off
-        if not spans:
+            slack.append(((hold.close - hold.open) - span) * f)  # frames the hand-set hold runs past toe-off
+        if not heights:
             out.append(hold)
+            tables.append(np.tile([0.0, 0.0, hold.close - hold.open], (e_count, 1)))
             continue
-        span, heel_span = float(np.mean(spans)), float(np.mean(heels))
+        table = np.where(np.isnan(table), np.nanmean(table, axis=0), table)
         closes_at_toe_off = names[c.close].endswith("toe-off")
         if closes_at_toe_off or not auto:
-            span = hold.close - hold.open
+            fixed = hold.close - hold.open
             if not auto and not closes_at_toe_off and np.mean(slack) > NEAR_OPEN:
                 warns.append(
                     f"constraint on {c.effector!r} holds the foot until keytime {c.close} ({names[c.close]!r}), "
                     f"{np.mean(slack):.1f} frames on average after the examples' foot leaves the ground: it will be "
                     "held through their swing (close it at a toe-off keytime, or let the build find constraints)"
                 )
-        close = hold.open + span
-        if not cyclic and c.close == len(names) - 1 and span >= hold.close - hold.open - 1e-9:
-            close = 1.0
-        heel_off = hold.open + min(heel_span, span)
-        toe_down = min(hold.open + float(np.mean(landings)), heel_off) if point == 1 else hold.open
+            table[:, 2] = fixed
+        if not cyclic and c.close == len(names) - 1:
+            table[:, 2] = np.maximum(table[:, 2], 1.0 - hold.open)  # held to the end of a one-shot motion
+        table[:, 1] = np.minimum(table[:, 1], table[:, 2])
+        table[:, 0] = np.minimum(table[:, 0], table[:, 1])
+        mean = table.mean(axis=0)
         heel_height = float(np.mean(heel_heights)) if heel_heights and point == 1 else None
-        out.append(Hold(c.effector, hold.open, close, heel_off, float(np.mean(heights)), toe_down, heel_height))
-    return out, warns
+        out.append(Hold(c.effector, hold.open, hold.open + mean[2], hold.open + mean[1], float(np.mean(heights)),
+                        hold.open + mean[0], heel_height))  # fmt: skip
+        tables.append(table)
+    return out, np.stack(tables, axis=1) if tables else np.zeros((len(clips), 0, 3)), warns
+
 
 
 def _run_near(mask: np.ndarray, frame: int) -> tuple[int, int] | None:

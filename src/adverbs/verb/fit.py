@@ -133,7 +133,7 @@ def build_verb(
         auto = False
         for c in constraints:
             check_constraint(c, first.clip.skeleton, keytimes.shape[1], cyclic)
-    holds, hold_warnings = derive_holds(
+    holds, hold_table, hold_warnings = derive_holds(
         constraints, [ex.clip for ex in examples], keytimes, spacing,
         names or [f"keytime {i}" for i in range(len(first.keytimes))], cyclic, floor, auto, [ex.name for ex in examples],
     )  # fmt: skip
@@ -156,6 +156,7 @@ def build_verb(
         smoothing,
         shrinkage,
         holds,
+        hold_table,
     )
 
 

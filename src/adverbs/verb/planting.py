@@ -59,6 +59,8 @@ def _spring(x0: np.ndarray, v0: np.ndarray, t: np.ndarray, halflife: np.ndarray 
 
 _HALFLIVES = np.array([SWING_HALFLIFE, LIFT_HALFLIFE, SWING_HALFLIFE])
 FREE, HEEL, BALL = 0, 1, 2  # what a foot is doing: swinging, landed on its heel, on its ball
+SWING_CLEARANCE = 0.1  # metres above the verb's own contact level where its swing is no longer lowered
+TOE_LANDS = 0.003  # metres: a rolling foot's ball this close to its contact height has landed
 
 
 @dataclass
@@ -69,7 +71,8 @@ class PlantingReport:
     root_drop: np.ndarray  # (F,) metres
     unreachable: int  # frames × effectors whose target stayed out of reach
     warnings: list[str] = field(default_factory=list)
-    flat: list[list[tuple[int, int]]] = field(default_factory=list)  # where each foot's orientation is held
+    flat: list[list[tuple[int, int]]] = field(default_factory=list)  # heel and ball held (foot flat)
+    heel: list[list[tuple[int, int]]] = field(default_factory=list)  # heel held (heel strike to heel-off)
 
 
 class FootPlanter:
@@ -80,7 +83,7 @@ class FootPlanter:
     the verb's effector position in the previous frame (for its velocity).
     """
 
-    def __init__(self, verb: Verb, creatures: int = 1, floor: Floor | None = None):
+    def __init__(self, verb: Verb, creatures: int = 1, floor: Floor | None = None, weights: np.ndarray | None = None):
         if not verb.constraints:
             raise AdverbsError(f"verb {verb.name!r} has no constraints: nothing to plant")
         self.verb = verb
@@ -89,17 +92,18 @@ class FootPlanter:
         self.tips = np.array(effector_joints(verb))
         self.heights = np.array([np.nan if h.height is None else h.height for h in verb.holds])
         self.opens = np.array([h.open for h in verb.holds])
-        self.closes = np.array([h.close for h in verb.holds])
-        self.heel_offs = np.array([h.heel_off for h in verb.holds])
-        self.toe_downs = np.array([h.toe_down for h in verb.holds])
         self.heel_heights = np.array([np.nan if h.heel_height is None else h.heel_height for h in verb.holds])
         c, n = int(creatures), len(verb.holds)
         if c < 1:
             raise AdverbsError(f"creatures must be at least 1, got {creatures}")
         self.creatures = c
+        if weights is None:  # the holds' mean times
+            self.times = np.tile([h.times for h in verb.holds], (c, 1, 1))
+        else:
+            self.set_weights(weights)
         self.started = False
-        self.held = np.zeros((c, n), dtype=bool)
         self.mode = np.full((c, n), FREE)
+        self.turn = np.zeros((c, n))
         self.target = np.zeros((c, n, 3))
         self.held_rot = np.tile(np.eye(3), (c, n, 1, 1))
         self.offset = np.zeros((c, n, 3))
@@ -111,21 +115,9 @@ class FootPlanter:
         self.prev_free = np.zeros((c, n, 3))
 
     # ----- the state machine ------------------------------------------------------------------
-    def _modes(self, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """What each effector does at generic times ``g (C,)``: ``(C, L)`` modes (:data:`FREE`, :data:`HEEL`:
-        the heel held while the foot rolls down, :data:`BALL`: the ball held) and how far each foot has
-        turned back to the verb's orientation (0 until heel-off, 1 at toe-off; smoothstep)."""
-        g = g[:, None]
-        span, heel = self.closes - self.opens, self.heel_offs - self.opens
-        if self.verb.cyclic:
-            into = (g - self.opens) % 1.0
-            inside = into < span
-        else:
-            into = g - self.opens
-            inside = (into >= 0.0) & ((g < self.closes) | (self.closes >= 1.0))
-        mode = np.where(inside, np.where(into >= self.toe_downs - self.opens, BALL, HEEL), FREE)
-        s = np.clip((into - heel) / np.maximum(span - heel, 1e-12), 0.0, 1.0)
-        return mode, s * s * (3.0 - 2.0 * s)
+    def set_weights(self, weights: np.ndarray) -> None:
+        """Hold times at the creatures' cardinal weights ``(C, E)`` (the examples' own, blended)."""
+        self.times = self.verb.hold_times(np.broadcast_to(weights, (self.creatures, len(self.verb.examples))))
 
     def _tilt(self, xz: np.ndarray) -> np.ndarray:
         """The floor's tilt ``(..., 3, 3)`` under points ``xz (..., 2)`` (identity on a flat floor)."""
@@ -143,47 +135,56 @@ class FootPlanter:
         generic time; ``dt``: seconds since the previous frame. The orientations include the floor's tilt.
         """
         verb, floor, tip = self.verb, self.floor, self.chains.tip_offset
-        follows = np.broadcast_to(np.isnan(self.heights), self.held.shape)  # effectors that keep the verb's height
+        follows = np.broadcast_to(np.isnan(self.heights), self.mode.shape)  # effectors that keep the verb's height
         height = np.where(follows, 0.0, self.heights)
         heel_height = np.broadcast_to(self.heel_heights, follows.shape)
-        mode, turn = self._modes(np.asarray(generic, dtype=float))
-        inside = mode != FREE
+        inside, turn = hold_modes(self.verb.cyclic, np.asarray(generic, dtype=float)[:, None], self.opens, self.times)
         # How far the verb's effector is above its contact height (its own floor at these adverbs).
         lift = np.where(follows, 0.0, free_pos[..., 1] - verb.floor - height)
-        flat = (mode == BALL) & (turn == 0.0)
-        if not self.started:  # the verb's level from the feet that are flat now, else none
-            down = np.where(flat, lift, np.inf).min(axis=1, keepdims=True)
-            self.hover[:] = np.where(flat, lift, np.where(np.isfinite(down), down, 0.0))
+        if not self.started:  # the verb's level from the feet that are down now, else none
+            down = np.where(inside, lift, np.inf).min(axis=1, keepdims=True)
+            self.hover[:] = np.where(np.isfinite(down), down, 0.0)
             self.ground[:] = np.inf
             self.prev_free[:] = free_pos
             self.started = True
         self.since += dt
         vel = (free_pos - self.prev_free) / dt if dt > 0 else np.zeros_like(free_pos)
         opening, closing = inside & (self.mode == FREE), ~inside & (self.mode != FREE)
-        # The verb's own level at these adverbs: the lowest its foot gets while flat, taken at toe-off.
-        self.ground = np.where(opening, np.inf, self.ground)
-        self.ground = np.where(flat, np.minimum(self.ground, lift), self.ground)
         self.hover = np.where(closing & np.isfinite(self.ground), self.ground, self.hover)
         # Where the free rule puts the foot: the verb's, lowered by its hover, on the floor.
         base = free_pos.copy()
-        base[..., 1] = floor.height(free_pos[..., [0, 2]]) + (free_pos[..., 1] - verb.floor) - self.hover
+        base[..., 1] = floor.height(free_pos[..., [0, 2]]) + height + _lowered(lift, self.hover)
         free_wanted = self._tilt(base[..., [0, 2]]) @ free_rot
         shown, _ = self._shown(base, height, follows, free_rot, free_wanted, turn)  # before anything switches
-        rocking = opening & (mode == HEEL)
-        if rocking.any():  # heel strike: the ankle is held where it is shown, at its height over the floor
-            ankle = shown[rocking] - np.einsum("nij,nj->ni", free_wanted[rocking], np.broadcast_to(tip, shown.shape)[rocking])
-            self._land(rocking, ankle, heel_height[rocking])
-        balls = (mode == BALL) & (self.mode != BALL)
-        if balls.any():  # foot flat (or a landing on the ball): the ball and the orientation are held
-            self._land(balls, shown[balls], np.where(follows[balls], np.nan, height[balls]))
-            self.held_rot[balls] = free_rot[balls]
         if closing.any():
             self.offset[closing] = shown[closing] - base[closing]  # let go from where it was shown
             self.offset_vel[closing] = -vel[closing]  # shown at rest: the verb's velocity cancelled
             self.since[closing] = 0.0
             self.settle[closing] = False
-        self.mode = mode
-        self.held = inside
+            self.mode[closing] = FREE
+        # A landing foot rolls down from its heel unless its ball is down already (a run's forefoot strike)
+        # or the heel is lifting (a foot found down in mid-stance when planting starts).
+        has_heel = ~follows & ~np.isnan(self.heel_heights)
+        low = shown[..., 1] - floor.height(shown[..., [0, 2]]) - height <= TOE_LANDS
+        rocking = opening & has_heel & ~low & (turn == 0.0)
+        opening &= low | (turn == 0.0)  # found rolling off with the ball already up: it is lifting, leave it free
+        if rocking.any():  # heel strike: the ankle is held where it is shown, at its height over the floor
+            ankle = shown[rocking] - np.einsum("nij,nj->ni", free_wanted[rocking], np.broadcast_to(tip, shown.shape)[rocking])
+            self._land(rocking, ankle, np.broadcast_to(self.heel_heights, rocking.shape)[rocking])
+            self.mode[rocking] = HEEL
+            shown, _ = self._shown(base, height, follows, free_rot, free_wanted, turn)
+        # The ball is down once the rolling foot brings it to the floor (or, at the latest, at heel-off).
+        low = shown[..., 1] - floor.height(shown[..., [0, 2]]) - height <= TOE_LANDS
+        balls = (opening & ~rocking) | ((self.mode == HEEL) & (low | (turn > 0.0)))
+        if balls.any():  # the ball and the foot's orientation are held
+            self._land(balls, shown[balls], np.where(follows[balls], np.nan, height[balls]))
+            self.held_rot[balls] = free_rot[balls]
+            self.mode[balls] = BALL
+        # The verb's own level at these adverbs: the lowest its foot gets while flat, taken at toe-off.
+        flat = (self.mode == BALL) & (turn == 0.0)
+        self.ground = np.where(opening, np.inf, self.ground)
+        self.ground = np.where(flat, np.minimum(self.ground, lift), self.ground)
+        self.turn = turn
         self.prev_free[:] = free_pos
         return self._shown(base, height, follows, free_rot, free_wanted, turn)
 
@@ -195,7 +196,7 @@ class FootPlanter:
         target[:, 1] = np.where(np.isnan(height), point[:, 1], level)
         self.target[which] = target
         self.offset[which] = 0.0
-        self.offset[which, 1] = point[:, 1] - target[:, 1]
+        self.offset[which, 1] = np.maximum(point[:, 1] - target[:, 1], 0.0)  # settles down, never up from below
         self.offset_vel[which] = 0.0
         self.since[which] = 0.0
         self.settle[which] = True
@@ -245,7 +246,7 @@ class FootPlanter:
         gpos, grot = forward_kinematics(self.verb.skeleton.parents, rotations, translations)
         free_pos, free_rot = gpos[:, self.tips], quat.to_matrix(grot[:, self.chains.end])
         targets, wanted = self.targets(free_pos, free_rot, generic, dt)
-        risen = _ride_floor(self.verb, self.chains, self.floor, translations, gpos, grot)
+        risen = _ride_floor(self.verb, self.chains, self.floor, translations, gpos, grot, targets)
         result = ik.solve(self.chains, rotations, risen, targets, self._tilts(wanted, free_rot))
         return result.rotations, result.translations, result
 
@@ -253,6 +254,29 @@ class FootPlanter:
     def _tilts(wanted: np.ndarray, free_rot: np.ndarray) -> np.ndarray:
         """What the IK premultiplies each foot's orientation by to make it ``wanted``: ``wanted · free⁻¹``."""
         return wanted @ np.swapaxes(free_rot, -1, -2)
+
+
+def hold_modes(cyclic: bool, g: np.ndarray, opens: np.ndarray, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Whether each hold is open at generic times ``g (..., 1)``, given its ``opens (L,)`` and ``times (..., L, 3)``
+    (foot flat, heel-off, toe-off): ``(..., L)`` bool, and how far each foot has turned back to the verb's
+    orientation (0 until heel-off, 1 at toe-off; smoothstep)."""
+    heel, close = times[..., 1] - opens, times[..., 2] - opens
+    if cyclic:
+        into = (g - opens) % 1.0
+        inside = into < close
+    else:
+        into = g - opens
+        inside = (into >= 0.0) & ((into < close) | (opens + close >= 1.0 - 1e-9))
+    s = np.clip((into - heel) / np.maximum(close - heel, 1e-12), 0.0, 1.0)
+    return inside, s * s * (3.0 - 2.0 * s)
+
+
+def _lowered(lift: np.ndarray, hover: np.ndarray) -> np.ndarray:
+    """A free foot's height above its contact height: the verb's ``lift``, less its ``hover`` (the verb's own
+    contact level at these adverbs) near that level, fading to none ``SWING_CLEARANCE`` above it, so the
+    foot lands on the floor and swings as high as the verb swings it."""
+    d = np.clip((lift - hover) / SWING_CLEARANCE, 0.0, 1.0)
+    return lift - hover * (1.0 - d * d * (3.0 - 2.0 * d))
 
 
 def _turn(held: np.ndarray, free: np.ndarray, w: np.ndarray) -> np.ndarray:
@@ -263,11 +287,14 @@ def _turn(held: np.ndarray, free: np.ndarray, w: np.ndarray) -> np.ndarray:
     return quat.to_matrix(q)
 
 
-def _ride_floor(verb: Verb, chains: ik.LegChains, floor: Floor, translations, gpos, grot) -> np.ndarray:
-    """Translations with the pelvis raised along world up by the floor's height under the body root."""
+def _ride_floor(verb: Verb, chains: ik.LegChains, floor: Floor, translations, gpos, grot, feet) -> np.ndarray:
+    """Translations with the pelvis raised along world up by the floor's height under the body root, or under
+    the lower foot (``feet (..., L, 3)``, the effectors' targets) where that is lower: up a slope the body
+    stays low enough for the trailing leg to reach its foot."""
     t = np.array(translations, dtype=float)
     lift = chains.above[-1]
-    rise = floor.height(gpos[..., verb.encoding.body_root, :][..., [0, 2]]) - verb.floor
+    under = floor.height(gpos[..., verb.encoding.body_root, :][..., [0, 2]])
+    rise = np.minimum(under, floor.height(feet[..., [0, 2]]).min(axis=-1)) - verb.floor
     up = np.broadcast_to([0.0, 1.0, 0.0], rise.shape + (3,))
     parent = verb.skeleton.parents[lift]
     if parent >= 0:
@@ -292,54 +319,77 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist()))
 
 
-def phase_masks(verb: Verb, keytimes: np.ndarray, clip: Clip) -> tuple[np.ndarray, np.ndarray]:
-    """Where each effector itself is held (from foot-flat to toe-off) and where its foot is flat (heel and
-    ball held, foot-flat to heel-off): masks ``(F, L)`` over the frames of ``clip`` (a motion of ``verb``)."""
+def phase_masks(
+    verb: Verb, keytimes: np.ndarray, clip: Clip, weights: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where each effector itself is held (foot flat to toe-off), where its foot is flat (heel and ball
+    held: foot flat to heel-off) and where its heel is held (heel strike to heel-off), as the examples'
+    contact times say: masks ``(F, L)`` over the frames of ``clip``, a motion of ``verb`` with
+    ``keytimes`` at cardinal ``weights (E,)`` (default: the holds' mean times). (The planter lands the
+    ball when it reaches the floor; what it did is in its :class:`PlantingReport`.)"""
     g = frame_generic(verb, keytimes, np.arange(clip.num_frames) / clip.fps)
-    held = np.stack([h.toe_held(g, verb.cyclic) for h in verb.holds], axis=1)
-    flat = np.stack([h.flat(g, verb.cyclic) for h in verb.holds], axis=1)
-    return held, flat
+    opens = np.array([h.open for h in verb.holds])
+    times = verb.hold_times(weights) if weights is not None else np.array([h.times for h in verb.holds])
+    inside, turn = hold_modes(verb.cyclic, g[:, None], opens, times)
+    into = (g[:, None] - opens) % 1.0 if verb.cyclic else g[:, None] - opens
+    ball = inside & (into >= times[..., 0] - opens)
+    return ball, ball & (turn == 0.0), inside & (turn == 0.0)
 
 
-def phase_frames(verb: Verb, keytimes: np.ndarray, clip: Clip) -> list[list[tuple[int, int]]]:
+def _mode_masks(modes: np.ndarray, turns: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Ball held, foot flat and heel held ``(F, L)`` from the planter's modes and turn-back weights."""
+    ball = modes == BALL
+    return ball, ball & (turns == 0.0), (modes != FREE) & (turns == 0.0)
+
+
+def phase_frames(
+    verb: Verb, keytimes: np.ndarray, clip: Clip, weights: np.ndarray | None = None
+) -> list[list[tuple[int, int]]]:
     """Each effector's held phases in frames ``[start, stop)`` of ``clip`` (a motion of ``verb`` with ``keytimes``)."""
-    held, _ = phase_masks(verb, keytimes, clip)
+    held = phase_masks(verb, keytimes, clip, weights)[0]
     return [_runs(held[:, i]) for i in range(held.shape[1])]
 
 
 def plant_feet(
-    verb: Verb, clip: Clip, keytimes: np.ndarray, floor: Floor | None = None
+    verb: Verb, clip: Clip, keytimes: np.ndarray, floor: Floor | None = None, point: np.ndarray | None = None
 ) -> tuple[Clip, PlantingReport]:
-    """Enforce ``verb``'s constraints on ``clip`` (synthesized by it with ``keytimes``) on ``floor``.
+    """Enforce ``verb``'s constraints on ``clip`` (synthesized by it at adverb ``point`` with ``keytimes``) on ``floor``.
 
     The :class:`FootPlanter` run over the frames in order, then every frame's legs in one batched IK
-    solve: the same motion as planting one frame at a time.
+    solve: the same motion as planting one frame at a time. ``point`` sets when each foot lands and
+    lifts (the examples' own contact times, blended); without it, their mean.
     """
-    return plant_feet_many(verb, [(clip, keytimes)], floor)[0]
+    return plant_feet_many(verb, [(clip, keytimes, point)], floor)[0]
 
 
 def plant_feet_many(
-    verb: Verb, motions: Sequence[tuple[Clip, np.ndarray]], floor: Floor | None = None
+    verb: Verb, motions: Sequence[tuple], floor: Floor | None = None
 ) -> list[tuple[Clip, PlantingReport]]:
-    """:func:`plant_feet` for many creatures' motions of one verb (each with its own adverbs, keytimes
-    and length): every frame of every creature goes through one batched IK solve.
+    """:func:`plant_feet` for many creatures' motions of one verb, ``(clip, keytimes)`` or ``(clip, keytimes,
+    point)`` each (their own adverbs, keytimes and length): every frame of every creature goes through
+    one batched IK solve.
     """
     floor = FlatFloor(verb.floor) if floor is None else floor
+    motions = [(m[0], m[1], m[2] if len(m) > 2 else None) for m in motions]
     if not verb.constraints:
-        return [(clip, PlantingReport([], np.zeros(clip.num_frames), 0)) for clip, _ in motions]
-    rots, trans, targets, tilts, starts = [], [], [], [], [0]
-    for clip, keytimes in motions:
-        planter = FootPlanter(verb, 1, floor)
+        return [(clip, PlantingReport([], np.zeros(clip.num_frames), 0)) for clip, _, _ in motions]
+    rots, trans, targets, tilts, starts, masks = [], [], [], [], [0], []
+    for clip, keytimes, point in motions:
+        w = None if point is None else verb.weights(verb.point(point))
+        planter = FootPlanter(verb, 1, floor, None if w is None else w[None])
         gpos, grot = clip.forward_kinematics()
         free_pos, free_rot = gpos[:, planter.tips], quat.to_matrix(grot[:, planter.chains.end])
         g = frame_generic(verb, keytimes, np.arange(clip.num_frames) / clip.fps)
         tg = np.empty_like(free_pos)
         wanted = np.empty_like(free_rot)
+        modes = np.empty(free_pos.shape[:2], dtype=int)
+        turns = np.empty(free_pos.shape[:2])
         for f in range(clip.num_frames):
             a, b = planter.targets(free_pos[f : f + 1], free_rot[f : f + 1], g[f : f + 1], 1.0 / clip.fps)
-            tg[f], wanted[f] = a[0], b[0]
+            tg[f], wanted[f], modes[f], turns[f] = a[0], b[0], planter.mode[0], planter.turn[0]
+        masks.append(_mode_masks(modes, turns))
         rots.append(clip.rotations)
-        trans.append(_ride_floor(verb, planter.chains, floor, clip.translations, gpos, grot))
+        trans.append(_ride_floor(verb, planter.chains, floor, clip.translations, gpos, grot, tg))
         targets.append(tg)
         tilts.append(planter._tilts(wanted, free_rot))
         starts.append(starts[-1] + clip.num_frames)
@@ -347,7 +397,7 @@ def plant_feet_many(
         verb.leg_chains, np.concatenate(rots), np.concatenate(trans), np.concatenate(targets), np.concatenate(tilts)
     )
     out = []
-    for (clip, keytimes), a, b in zip(motions, starts[:-1], starts[1:]):
+    for (clip, _, _), (held, flat, heel), a, b in zip(motions, masks, starts[:-1], starts[1:]):
         unreachable = int(np.count_nonzero(result.unreachable[a:b]))
         warnings = []
         if unreachable:
@@ -356,10 +406,9 @@ def plant_feet_many(
                 f"{1000 * result.residual[a:b].max():.0f} mm); the pose was left as close as it gets"
             )
         planted = clip.replace(rotations=result.rotations[a:b], translations=result.translations[a:b])
-        held, flat = phase_masks(verb, keytimes, clip)
         report = PlantingReport(
-            [_runs(held[:, i]) for i in range(held.shape[1])], result.root_drop[a:b], unreachable, warnings,
-            [_runs(flat[:, i]) for i in range(flat.shape[1])],
+            [_runs(held[:, i]) for i in range(held.shape[1])], result.root_drop[a:b], unreachable,
+            warnings, [_runs(flat[:, i]) for i in range(flat.shape[1])], [_runs(heel[:, i]) for i in range(heel.shape[1])],
         )  # fmt: skip
         out.append((planted, report))
     return out

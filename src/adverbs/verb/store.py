@@ -75,6 +75,7 @@ def save_verb(verb: Verb, path: str | Path) -> None:
         "points": verb.points,
         "keytimes": verb.keytimes_table,
         "generic_keytimes": verb.generic_keytimes,
+        "hold_table": verb.hold_table,
         "coefficients": verb.coefficients,
         "parents": skel.parents,
         "offsets": skel.offsets,
@@ -171,6 +172,7 @@ def load_verb(path: str | Path) -> Verb:
             float(meta["smoothing"]),
             float(meta["shrinkage"]),
             [Hold.from_dict(h) for h in meta["holds"]],
+            arrays["hold_table"],
         )
     except AdverbsError as e:
         raise AdverbsError(f"{path}: {e}") from None

@@ -100,6 +100,8 @@ class Verb:
     holds : how the planter holds each constraint's effector, in generic time, with the effector's
         height above the floor while down (measured from the examples' contacts at build; by default
         read from the constraints' keytimes alone)
+    hold_table : (E, L, 3) each example's foot-flat, heel-off and toe-off of each hold, generic time
+        after its opening (blended like keytimes: :meth:`hold_times`; default: the holds' own)
     floor : height of the ground the examples stand on, metres
     generic_keytimes : (N,) where each keytime sits in generic time, from 0 to 1, shared by every
         example (default: evenly spaced, the paper's; see :mod:`adverbs.interp.timewarp`)
@@ -129,6 +131,7 @@ class Verb:
     smoothing: float | str = 0.0
     shrinkage: float | str = 0.0
     holds: tuple[Hold, ...] = ()
+    hold_table: np.ndarray | None = None
     interpolator: AdverbInterpolator = field(init=False, repr=False)
     log_intervals: np.ndarray = field(init=False, repr=False)
     segments: np.ndarray = field(init=False, repr=False)
@@ -160,6 +163,11 @@ class Verb:
         if [h.effector for h in holds] != [c.effector for c in self.constraints]:
             raise AdverbsError(f"verb {name!r}: {len(holds)} holds for {len(self.constraints)} constraints")
         put(self, "holds", holds)
+        spans = np.array([[h.toe_down - h.open, h.heel_off - h.open, h.close - h.open] for h in holds]).reshape(-1, 3)
+        table = np.broadcast_to(spans, (len(self.examples),) + spans.shape) if self.hold_table is None else self.hold_table
+        if np.shape(table) != (len(self.examples), len(holds), 3) or not np.all(np.isfinite(table)):
+            raise AdverbsError(f"verb {name!r}: hold table {np.shape(table)} does not fit {len(holds)} holds")
+        put(self, "hold_table", _frozen(table))
         e = len(self.examples)
         if self.points.shape != (e, len(self.adverbs)) or self.keytimes_table.shape[0] != e:
             raise AdverbsError(f"verb {name!r}: tables disagree on the number of examples or adverbs")
@@ -279,6 +287,22 @@ class Verb:
         w = self.weights(p) if weights is None else weights
         steps = np.exp(w @ self.log_intervals)
         return np.concatenate([np.zeros(steps.shape[:-1] + (1,)), np.cumsum(steps, axis=-1)], axis=-1)
+
+    def hold_times(self, weights: np.ndarray) -> np.ndarray:
+        """Generic times ``(..., L, 3)`` of each hold's foot-flat, heel-off and toe-off at cardinal ``weights (..., E)``.
+
+        The examples' own, blended; kept in order (foot-flat ≤ heel-off ≤ toe-off, a cycle at most) where
+        extrapolated weights would cross them.
+        """
+        spans = np.tensordot(np.asarray(weights, dtype=float), self.hold_table, axes=(-1, 0))
+        opens = np.array([h.open for h in self.holds])
+        close = np.clip(spans[..., 2], 1e-6, 1.0 if self.cyclic else None)
+        if not self.cyclic:
+            close = np.minimum(close, 1.0 - opens)
+            close = np.where(self.hold_table[..., 2].min(axis=0) >= 1.0 - opens - 1e-9, 1.0 - opens, close)
+        heel = np.clip(spans[..., 1], 0.0, close)
+        flat = np.clip(spans[..., 0], 0.0, heel)
+        return opens[:, None] + np.stack([flat, heel, close], axis=-1)
 
     def control_points(self, p: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
         """All control points ``(..., NumCP, D)`` at ``p`` (eq. 3); ``weights`` if already known."""
