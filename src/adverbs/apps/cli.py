@@ -29,7 +29,7 @@ from ..io.bvh import read_bvh, write_bvh
 from ..kinematics.floor import parse_floor
 from ..motion.clip import Clip
 from ..motion.contacts import find_contacts
-from ..verb.planting import foot_drift, plant_feet
+from ..verb.planting import foot_drift, measure_feet, plant_feet
 from ..verb.store import load_verb, save_verb
 from ..verb.synthesis import render
 from ..verb.tables import Verb
@@ -307,13 +307,13 @@ def _run(args: argparse.Namespace) -> None:
             clip, k = render(verb, cp, k, duration=args.duration, cycles=args.cycles, fps=args.fps, point=p)
         feet = "feet not planted (--no-ik)"
         if verb.constraints and not args.no_ik:
-            raw = foot_drift(verb, clip, k)
-            clip, report = plant_feet(verb, clip, k, floor)
-            done = foot_drift(verb, clip, k)
+            raw = foot_drift(verb, clip, k, verb.weights(p))
+            clip, report = plant_feet(verb, clip, k, floor, p)
+            metrics = measure_feet(verb, clip, report, floor)
             feet = (
-                f"feet planted: drift per contact phase median {1000 * np.median(done):.1f} mm, "
-                f"max {1000 * done.max():.1f} mm (without IK {1000 * np.median(raw):.1f} / {1000 * raw.max():.1f} mm)"
-                if len(done)
+                f"feet planted: {metrics.line()} (toe drift without IK {1000 * np.median(raw):.1f} / "
+                f"{1000 * raw.max():.1f} mm)"
+                if len(metrics.toe_drift)
                 else "no contact phase in this stretch of motion"
             )
             for warning in report.warnings:

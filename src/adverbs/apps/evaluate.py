@@ -44,7 +44,7 @@ from ..interp.rbf import AdverbInterpolator
 from ..kinematics.fk import forward_kinematics
 from ..verb.fit import build_from_spec
 from ..verb.measures import measure_all
-from ..verb.planting import foot_drift, plant_feet
+from ..verb.planting import foot_drift, measure_feet, plant_feet
 from ..verb.synthesis import render
 from ..verb.tables import Verb
 
@@ -266,8 +266,9 @@ def drift(verb: Verb, cycles: int = 2) -> dict[str, dict[str, np.ndarray]]:
         ik, raw = [], []
         for p in pts:
             clip, k = verb.synthesize(p, cycles=cycles if verb.cyclic else None)
-            raw.append(foot_drift(verb, clip, k))
-            ik.append(foot_drift(verb, plant_feet(verb, clip, k)[0], k))
+            raw.append(foot_drift(verb, clip, k, verb.weights(p)))
+            planted, report = plant_feet(verb, clip, k, None, p)
+            ik.append(measure_feet(verb, planted, report).toe_drift)
         out[kind] = {"ik": np.concatenate(ik), "no ik": np.concatenate(raw)}
     return out
 

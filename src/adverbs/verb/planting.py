@@ -45,7 +45,7 @@ from ..kinematics.floor import FlatFloor, Floor, tilt
 from ..motion.clip import Clip
 from .tables import Verb
 
-LIFT_HALFLIFE = 0.02  # seconds: the vertical part of a released foot's offset halves this fast
+LIFT_HALFLIFE = 0.015  # seconds: the vertical part of a released foot's offset halves this fast
 SWING_HALFLIFE = 0.1  # seconds: the horizontal part, slower, so the foot lifts before it travels
 SETTLE_HALFLIFE = 0.03  # seconds: a landing foot's height settles onto the floor this fast
 _LN2 = float(np.log(2.0))
@@ -58,8 +58,11 @@ def _spring(x0: np.ndarray, v0: np.ndarray, t: np.ndarray, halflife: np.ndarray 
 
 
 _HALFLIVES = np.array([SWING_HALFLIFE, LIFT_HALFLIFE, SWING_HALFLIFE])
+_AT_REST = np.array([1.0, 0.0, 1.0])  # which parts of the verb's velocity a released foot starts without
 FREE, HEEL, BALL = 0, 1, 2  # what a foot is doing: swinging, landed on its heel, on its ball
 SWING_CLEARANCE = 0.1  # metres above the verb's own contact level where its swing is no longer lowered
+LIFTED = 0.02  # metres above its contact height: a released foot this high has left the ground
+LIFTS_OFF = 0.02  # metres: a rolling foot's ball this far above its contact level is lifting off
 TOE_LANDS = 0.003  # metres: a rolling foot's ball this close to its contact height has landed
 
 
@@ -108,7 +111,8 @@ class FootPlanter:
         self.held_rot = np.tile(np.eye(3), (c, n, 1, 1))
         self.offset = np.zeros((c, n, 3))
         self.offset_vel = np.zeros((c, n, 3))
-        self.since = np.zeros((c, n))
+        self.since = np.zeros((c, n, 3))
+        self.spent = np.zeros((c, n), dtype=bool)  # this hold's foot was let go early: the verb lifted it
         self.settle = np.zeros((c, n), dtype=bool)  # the offset being decayed is a landing's
         self.hover = np.zeros((c, n))  # the verb's contact level, lowering the free foot
         self.ground = np.zeros((c, n))  # its lowest point over the current hold: the next hover
@@ -137,7 +141,6 @@ class FootPlanter:
         verb, floor, tip = self.verb, self.floor, self.chains.tip_offset
         follows = np.broadcast_to(np.isnan(self.heights), self.mode.shape)  # effectors that keep the verb's height
         height = np.where(follows, 0.0, self.heights)
-        heel_height = np.broadcast_to(self.heel_heights, follows.shape)
         inside, turn = hold_modes(self.verb.cyclic, np.asarray(generic, dtype=float)[:, None], self.opens, self.times)
         # How far the verb's effector is above its contact height (its own floor at these adverbs).
         lift = np.where(follows, 0.0, free_pos[..., 1] - verb.floor - height)
@@ -149,6 +152,11 @@ class FootPlanter:
             self.started = True
         self.since += dt
         vel = (free_pos - self.prev_free) / dt if dt > 0 else np.zeros_like(free_pos)
+        # A rolling foot the verb already lifts off (its ball LIFTS_OFF above its own contact level) is let go
+        # before the hold's toe-off, and not held again until the next hold.
+        self.spent &= inside
+        self.spent |= (self.mode == BALL) & (turn > 0.0) & (_lowered(lift, self.hover) >= LIFTS_OFF)
+        inside = inside & ~self.spent
         opening, closing = inside & (self.mode == FREE), ~inside & (self.mode != FREE)
         self.hover = np.where(closing & np.isfinite(self.ground), self.ground, self.hover)
         # Where the free rule puts the foot: the verb's, lowered by its hover, on the floor.
@@ -158,7 +166,7 @@ class FootPlanter:
         shown, _ = self._shown(base, height, follows, free_rot, free_wanted, turn)  # before anything switches
         if closing.any():
             self.offset[closing] = shown[closing] - base[closing]  # let go from where it was shown
-            self.offset_vel[closing] = -vel[closing]  # shown at rest: the verb's velocity cancelled
+            self.offset_vel[closing] = -vel[closing] * _AT_REST  # leaves from rest horizontally, rises as the verb lifts it
             self.since[closing] = 0.0
             self.settle[closing] = False
             self.mode[closing] = FREE
@@ -186,7 +194,8 @@ class FootPlanter:
         self.ground = np.where(flat, np.minimum(self.ground, lift), self.ground)
         self.turn = turn
         self.prev_free[:] = free_pos
-        return self._shown(base, height, follows, free_rot, free_wanted, turn)
+        shown, wanted = self._shown(base, height, follows, free_rot, free_wanted, turn)
+        return shown, wanted
 
     def _land(self, which: np.ndarray, point: np.ndarray, height: np.ndarray) -> None:
         """Hold ``point (n, 3)`` for the effectors in ``which``: where it is, ``height`` above the floor (NaN:
@@ -220,12 +229,12 @@ class FootPlanter:
     def _offset(self) -> np.ndarray:
         """The decaying offset of the free rule now, ``(C, L, 3)`` (zero where a landing's is decaying)."""
         hl = np.where(self.settle[..., None], SETTLE_HALFLIFE, _HALFLIVES)
-        x = _spring(self.offset, self.offset_vel, self.since[..., None], hl)
+        x = _spring(self.offset, self.offset_vel, self.since, hl)
         return np.where(self.settle[..., None], 0.0, x)
 
     def _held_offset(self) -> np.ndarray:
         """The decaying height offset of a landing foot now, ``(C, L, 3)``."""
-        x = _spring(self.offset, self.offset_vel, self.since[..., None], SETTLE_HALFLIFE)
+        x = _spring(self.offset, self.offset_vel, self.since, SETTLE_HALFLIFE)
         return np.where(self.settle[..., None], x, 0.0)
 
     def _shown_held(self) -> np.ndarray:
@@ -423,13 +432,108 @@ def planted_drift(positions: np.ndarray, spans: list[tuple[int, int]]) -> np.nda
     return np.array(out)
 
 
-def foot_drift(verb: Verb, clip: Clip, keytimes: np.ndarray) -> np.ndarray:
-    """:func:`planted_drift` of every constrained effector of ``clip``, all phases together, metres."""
+def foot_drift(verb: Verb, clip: Clip, keytimes: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
+    """:func:`planted_drift` of every constrained effector of ``clip`` over the phases the examples' contact
+    times give (:func:`phase_frames`; a planted clip's own are in its report), all together, metres."""
     gpos = clip.global_positions()
-    spans = phase_frames(verb, keytimes, clip)
+    spans = phase_frames(verb, keytimes, clip, weights)
     return np.concatenate([planted_drift(gpos[:, e], s) for e, s in zip(effector_joints(verb), spans)] or [np.zeros(0)])
 
 
 def effector_joints(verb: Verb) -> list[int]:
     """Joint index of each constraint's effector."""
     return [verb.skeleton.index(c.effector) for c in verb.constraints]
+
+
+
+@dataclass
+class FootMetrics:
+    """What planted feet look like, measured on the output's joints (metres, m/s); see :func:`measure_feet`.
+
+    ``toe_drift (P,)``: per held phase of the ball, its largest horizontal distance from where the phase
+    began. ``heel_drift (Q,)``: the same for the ankle over each phase where the foot is flat.
+    ``lowest``: the lowest any constrained effector gets, against the floor plus its contact height
+    (negative: through the floor). ``held_height``: the largest distance of a held ball from the floor
+    plus its contact height. ``slide (R,)``: per release, how far the foot moves horizontally before it
+    rises ``LIFTED`` above its contact height (``free_slide``: the same for the verb's own motion, if
+    given). ``release_speed (R,)``: the foot's largest speed over the
+    three frames after each release. ``unreachable``: effector-frames the IK could not reach.
+    """
+
+    toe_drift: np.ndarray
+    heel_drift: np.ndarray
+    lowest: float
+    held_height: float
+    slide: np.ndarray
+    release_speed: np.ndarray
+    unreachable: int
+    free_slide: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    def line(self) -> str:
+        """One line for a terminal."""
+        def mm(x: np.ndarray, f=np.max) -> str:
+            return f"{1000 * f(x):.1f}" if len(x) else "-"
+
+        return (
+            f"toe drift median {mm(self.toe_drift, np.median)} / max {mm(self.toe_drift)} mm, heel drift max "
+            f"{mm(self.heel_drift)} mm, lowest {1000 * self.lowest:+.1f} mm, held height within "
+            f"{1000 * self.held_height:.1f} mm, slide after release max {mm(self.slide)} mm, "
+            f"{self.unreachable} effector-frames out of reach"
+        )
+
+
+def measure_feet(
+    verb: Verb, planted: Clip, report: PlantingReport, floor: Floor | None = None, free: Clip | None = None
+) -> FootMetrics:
+    """:class:`FootMetrics` of ``planted`` (what :func:`plant_feet` returned with ``report``) on ``floor``.
+
+    With ``free``, the verb's own motion that was planted, ``free_slide`` is how far its toe travels
+    horizontally over each swing while under ``LIFTED`` above its own contact level (the lowest it was
+    over the hold before): the slide the verb itself has (a foot that sweeps the ground in a pivot turn).
+    """
+    floor = FlatFloor(verb.floor) if floor is None else floor
+    gpos = planted.global_positions()
+    tips = effector_joints(verb)
+    toe, ankle = gpos[:, tips], gpos[:, verb.leg_chains.end]
+    height = np.array([0.0 if h.height is None else h.height for h in verb.holds])
+    follows = np.array([h.height is None for h in verb.holds])
+    above = toe[..., 1] - floor.height(toe[..., [0, 2]]) - height
+    speed = np.zeros(toe.shape[:2])
+    speed[1:] = np.linalg.norm(np.diff(toe, axis=0), axis=-1) * planted.fps
+    releases = [(i, a, b) for i in range(len(tips)) for a, b in report.phases[i] if b < planted.num_frames]
+    held = [np.abs(above[a:b, i]).max() for i in range(len(tips)) if not follows[i] for a, b in report.phases[i]]
+    free_slide = np.zeros(0)
+    if free is not None:
+        ftoe = free.global_positions()[:, tips]
+        lift = ftoe[..., 1] - verb.floor - height
+        step = np.zeros(lift.shape)
+        step[1:] = np.linalg.norm(np.diff(ftoe[..., [0, 2]], axis=0), axis=-1)
+        swept = []
+        for i, a, b in releases:
+            nxt = min([s for s, _ in report.phases[i] if s > a] or [len(ftoe)])
+            level = lift[a:b, i].min()  # the verb's own contact level over the hold before
+            swept.append(step[b:nxt, i][lift[b:nxt, i] - level < LIFTED].sum())
+        free_slide = np.array(swept)
+    return FootMetrics(
+        np.concatenate([planted_drift(toe[:, i], report.phases[i]) for i in range(len(tips))]),
+        np.concatenate([planted_drift(ankle[:, i], report.flat[i]) for i in range(len(tips))]),
+        float(np.where(follows, np.inf, above).min()) if not follows.all() else 0.0,
+        float(max(held, default=0.0)),
+        _slides(toe, above, releases, report.phases),
+        np.array([speed[b : b + 3, i].max() for i, _, b in releases]),
+        report.unreachable,
+        free_slide,
+    )
+
+
+def _slides(toe: np.ndarray, above: np.ndarray, releases: list, phases: list) -> np.ndarray:
+    """Per release ``(leg, start, stop)``: how far the toe moves horizontally from its last held frame
+    while it stays under ``LIFTED`` above its contact height (``above (F, L)``), until the next hold."""
+    out = []
+    for i, a, b in releases:
+        nxt = min([s for s, _ in phases[i] if s > a] or [len(toe)])
+        e = b
+        while e < nxt and above[e, i] < LIFTED:
+            e += 1
+        out.append(float(np.linalg.norm(toe[b - 1 : e, i][:, [0, 2]] - toe[b - 1, i][[0, 2]], axis=-1).max()))
+    return np.array(out)
