@@ -130,13 +130,14 @@ class FootPlanter:
         return tilt(self.floor.normal(xz))
 
     def targets(
-        self, free_pos: np.ndarray, free_rot: np.ndarray, generic: np.ndarray, dt: float
+        self, free_pos: np.ndarray, free_rot: np.ndarray, generic: np.ndarray, dt: float | np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
         """Advance the state by one frame; the effectors' targets ``(C, L, 3)`` and wanted foot orientations ``(C, L, 3, 3)``.
 
         ``free_pos (C, L, 3)`` and ``free_rot (C, L, 3, 3)``: where the verb puts each effector and the
         global orientation of its foot (the chain's end) this frame; ``generic (C,)``: the frame's
-        generic time; ``dt``: seconds since the previous frame. The orientations include the floor's tilt.
+        generic time; ``dt``: seconds since the previous frame (one for all, or ``(C,)``). The orientations
+        include the floor's tilt.
         """
         verb, floor, tip = self.verb, self.floor, self.chains.tip_offset
         follows = np.broadcast_to(np.isnan(self.heights), self.mode.shape)  # effectors that keep the verb's height
@@ -150,8 +151,9 @@ class FootPlanter:
             self.ground[:] = np.inf
             self.prev_free[:] = free_pos
             self.started = True
+        dt = np.broadcast_to(np.asarray(dt, dtype=float), (self.creatures,))[:, None, None]
         self.since += dt
-        vel = (free_pos - self.prev_free) / dt if dt > 0 else np.zeros_like(free_pos)
+        vel = (free_pos - self.prev_free) / np.where(dt > 0, dt, np.inf)
         # A rolling foot the verb already lifts off (its ball LIFTS_OFF above its own contact level) is let go
         # before the hold's toe-off, and not held again until the next hold.
         self.spent &= inside
@@ -382,26 +384,41 @@ def plant_feet_many(
     motions = [(m[0], m[1], m[2] if len(m) > 2 else None) for m in motions]
     if not verb.constraints:
         return [(clip, PlantingReport([], np.zeros(clip.num_frames), 0)) for clip, _, _ in motions]
+    # Every creature's planter state advanced together, frame by frame (shorter clips repeat their last
+    # frame; what comes after their end is dropped): the state machine is vectorized over creatures.
+    c, longest = len(motions), max(clip.num_frames for clip, _, _ in motions)
+    weights = np.stack([verb.weights(verb.point(p)) if p is not None else np.full(len(verb.examples), np.nan)
+                        for _, _, p in motions])  # fmt: skip
+    planter = FootPlanter(verb, c, floor)
+    known = ~np.isnan(weights[:, 0])
+    if known.any():
+        planter.times[known] = verb.hold_times(weights[known])
+    fk = [clip.forward_kinematics() for clip, _, _ in motions]
+    tips, ends = planter.tips, planter.chains.end
+    free_pos = np.empty((longest, c, len(tips), 3))
+    free_rot = np.empty((longest, c, len(tips), 3, 3))
+    g = np.empty((longest, c))
+    for i, ((clip, keytimes, _), (gpos, grot)) in enumerate(zip(motions, fk)):
+        n = clip.num_frames
+        free_pos[:n, i], free_rot[:n, i] = gpos[:, tips], quat.to_matrix(grot[:, ends])
+        free_pos[n:, i], free_rot[n:, i] = free_pos[n - 1, i], free_rot[n - 1, i]
+        g[:n, i] = frame_generic(verb, keytimes, np.arange(n) / clip.fps)
+        g[n:, i] = g[n - 1, i]
+    dt = np.array([1.0 / clip.fps for clip, _, _ in motions])
+    tg, wanted = np.empty_like(free_pos), np.empty_like(free_rot)
+    modes, turns = np.empty(free_pos.shape[:3], dtype=int), np.empty(free_pos.shape[:3])
+    for f in range(longest):
+        tg[f], wanted[f] = planter.targets(free_pos[f], free_rot[f], g[f], dt)
+        modes[f], turns[f] = planter.mode, planter.turn
     rots, trans, targets, tilts, starts, masks = [], [], [], [], [0], []
-    for clip, keytimes, point in motions:
-        w = None if point is None else verb.weights(verb.point(point))
-        planter = FootPlanter(verb, 1, floor, None if w is None else w[None])
-        gpos, grot = clip.forward_kinematics()
-        free_pos, free_rot = gpos[:, planter.tips], quat.to_matrix(grot[:, planter.chains.end])
-        g = frame_generic(verb, keytimes, np.arange(clip.num_frames) / clip.fps)
-        tg = np.empty_like(free_pos)
-        wanted = np.empty_like(free_rot)
-        modes = np.empty(free_pos.shape[:2], dtype=int)
-        turns = np.empty(free_pos.shape[:2])
-        for f in range(clip.num_frames):
-            a, b = planter.targets(free_pos[f : f + 1], free_rot[f : f + 1], g[f : f + 1], 1.0 / clip.fps)
-            tg[f], wanted[f], modes[f], turns[f] = a[0], b[0], planter.mode[0], planter.turn[0]
-        masks.append(_mode_masks(modes, turns))
+    for i, ((clip, _, _), (gpos, grot)) in enumerate(zip(motions, fk)):
+        n = clip.num_frames
+        masks.append(_mode_masks(modes[:n, i], turns[:n, i]))
         rots.append(clip.rotations)
-        trans.append(_ride_floor(verb, planter.chains, floor, clip.translations, gpos, grot, tg))
-        targets.append(tg)
-        tilts.append(planter._tilts(wanted, free_rot))
-        starts.append(starts[-1] + clip.num_frames)
+        trans.append(_ride_floor(verb, planter.chains, floor, clip.translations, gpos, grot, tg[:n, i]))
+        targets.append(tg[:n, i])
+        tilts.append(planter._tilts(wanted[:n, i], free_rot[:n, i]))
+        starts.append(starts[-1] + n)
     result = ik.solve(
         verb.leg_chains, np.concatenate(rots), np.concatenate(trans), np.concatenate(targets), np.concatenate(tilts)
     )
