@@ -26,9 +26,9 @@ from ..errors import AdverbsError
 from . import quat
 from .skeleton import Skeleton
 
-REACH = 0.999  # fraction of the straight leg's length a target may ask for
+REACH = 0.995  # fraction of the straight leg's length a target may ask for
 MAX_STEP = 0.25  # radians: the largest joint change of one iteration
-ITERATIONS = 6
+ITERATIONS = 8
 MAX_DROP = 0.5  # the root is lowered by at most this fraction of the shortest leg's reach
 DAMPING = 0.01  # λ, metres
 MISS = 1e-3  # metres: an effector farther than this from its target counts as out of reach

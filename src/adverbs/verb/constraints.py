@@ -23,6 +23,7 @@ from ..motion.clip import Clip
 from ..motion.contacts import find_contacts, point_contacts
 
 STANDING = 0.95  # fraction of frames a foot must be down in every example to count as planted throughout
+HEEL_LIFTS = 0.015  # metres: a heel this far above its contact level has lifted (heel-off)
 TOE_DOWN = 0.005  # metres: a ball this close to its contact height is down (the foot is flat)
 NEAR_OPEN = 2  # frames: an example's contact must begin this close to the opening keytime to be its contact
 
@@ -242,14 +243,17 @@ def derive_holds(
             a, b = run
             span = g[b] - g[o]
             hr = _run_overlapping(heel, o, b)
-            heel_span = min(max(g[hr[1]] - g[o], 0.0), span) if hr is not None else 0.0
+            heel_span = 0.0
+            if hr is not None:  # the heel lifts after the last frame it is within HEEL_LIFTS of its own level
+                hy = pts[np.arange(o, b) % f, foot, 0, 1] - floor
+                heel_heights.append(float(np.percentile(pts[np.arange(*hr) % f, foot, 0, 1], 20)) - floor)
+                low = np.flatnonzero(hy <= heel_heights[-1] + HEEL_LIFTS)
+                heel_span = min(g[o + low[-1] + 1] - g[o], span) if len(low) else 0.0
             heights.append(float(np.median(pts[np.arange(a, b) % f, foot, point, 1])) - floor)
-            # The ball is down once within TOE_DOWN of that height; the heel's height over its own contact.
+            # The ball is down once within TOE_DOWN of that height.
             y = pts[np.arange(o, b) % f, foot, point, 1] - floor
             landing = min(g[o + int(np.argmax(y < heights[-1] + TOE_DOWN))] - g[o], heel_span)
             table[e] = landing if point == 1 else 0.0, heel_span, span
-            if hr is not None:
-                heel_heights.append(float(np.median(pts[np.arange(*hr) % f, foot, 0, 1])) - floor)
             slack.append(((hold.close - hold.open) - span) * f)  # frames the hand-set hold runs past toe-off
         if not heights:
             out.append(hold)

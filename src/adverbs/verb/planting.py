@@ -47,6 +47,7 @@ from .tables import Verb
 
 LIFT_HALFLIFE = 0.015  # seconds: the vertical part of a released foot's offset halves this fast
 SWING_HALFLIFE = 0.1  # seconds: the horizontal part, slower, so the foot lifts before it travels
+DROP_HALFLIFE = 0.1  # seconds: a lowered root comes back up no faster than this decay
 SETTLE_HALFLIFE = 0.03  # seconds: a landing foot's height settles onto the floor this fast
 _LN2 = float(np.log(2.0))
 
@@ -63,6 +64,7 @@ FREE, HEEL, BALL = 0, 1, 2  # what a foot is doing: swinging, landed on its heel
 SWING_CLEARANCE = 0.1  # metres above the verb's own contact level where its swing is no longer lowered
 LIFTED = 0.02  # metres above its contact height: a released foot this high has left the ground
 LIFTS_OFF = 0.02  # metres: a rolling foot's ball this far above its contact level is lifting off
+STILL_DOWN = 0.005  # metres: a held ball the verb raises less than this over its level is still down
 TOE_LANDS = 0.003  # metres: a rolling foot's ball this close to its contact height has landed
 
 
@@ -112,7 +114,11 @@ class FootPlanter:
         self.offset = np.zeros((c, n, 3))
         self.offset_vel = np.zeros((c, n, 3))
         self.since = np.zeros((c, n, 3))
-        self.spent = np.zeros((c, n), dtype=bool)  # this hold's foot was let go early: the verb lifted it
+        self.spent = np.zeros((c, n), dtype=bool)
+        self.drop = np.zeros(c)  # how far the root is lowered (decaying once no leg needs it)
+        self.rising = np.zeros((c, n))  # how far a rolling ball is raised with the verb's
+        self.rel_rot = np.tile(np.eye(3), (c, n, 1, 1))  # a released foot's orientation, relative to the verb's
+        self.rot_since = np.full((c, n), 1e9)  # seconds since then (long ago: nothing left)  # this hold's foot was let go early: the verb lifted it
         self.settle = np.zeros((c, n), dtype=bool)  # the offset being decayed is a landing's
         self.hover = np.zeros((c, n))  # the verb's contact level, lowering the free foot
         self.ground = np.zeros((c, n))  # its lowest point over the current hold: the next hover
@@ -145,6 +151,9 @@ class FootPlanter:
         inside, turn = hold_modes(self.verb.cyclic, np.asarray(generic, dtype=float)[:, None], self.opens, self.times)
         # How far the verb's effector is above its contact height (its own floor at these adverbs).
         lift = np.where(follows, 0.0, free_pos[..., 1] - verb.floor - height)
+        # A ball the verb lifts off its level rolls the foot off it too, whatever the examples' heel-off says.
+        up = np.clip((_lowered(lift, self.hover) - STILL_DOWN) / (LIFTS_OFF - STILL_DOWN), 0.0, 1.0)
+        turn = np.where(self.mode == BALL, np.maximum(turn, up * up * (3.0 - 2.0 * up)), turn)
         if not self.started:  # the verb's level from the feet that are down now, else none
             down = np.where(inside, lift, np.inf).min(axis=1, keepdims=True)
             self.hover[:] = np.where(np.isfinite(down), down, 0.0)
@@ -165,8 +174,13 @@ class FootPlanter:
         base = free_pos.copy()
         base[..., 1] = floor.height(free_pos[..., [0, 2]]) + height + _lowered(lift, self.hover)
         free_wanted = self._tilt(base[..., [0, 2]]) @ free_rot
-        shown, _ = self._shown(base, height, follows, free_rot, free_wanted, turn)  # before anything switches
-        if closing.any():
+        self.rot_since += dt[..., 0]
+        # Rolling off: the ball rises as the verb's does over its contact level, weighted in as the heel lifts.
+        self.rising = np.where(follows, 0.0, np.maximum(_lowered(lift, self.hover), 0.0) * self.turn)
+        shown, wanted = self._shown(base, height, follows, free_rot, free_wanted, self.turn)  # before anything switches
+        if closing.any():  # let go: what the foot's orientation had still to turn decays from here
+            self.rel_rot[closing] = wanted[closing] @ np.swapaxes(free_wanted[closing], -1, -2)
+            self.rot_since[closing] = 0.0
             self.offset[closing] = shown[closing] - base[closing]  # let go from where it was shown
             self.offset_vel[closing] = -vel[closing] * _AT_REST  # leaves from rest horizontally, rises as the verb lifts it
             self.since[closing] = 0.0
@@ -188,13 +202,14 @@ class FootPlanter:
         balls = (opening & ~rocking) | ((self.mode == HEEL) & (low | (turn > 0.0)))
         if balls.any():  # the ball and the foot's orientation are held
             self._land(balls, shown[balls], np.where(follows[balls], np.nan, height[balls]))
-            self.held_rot[balls] = free_rot[balls]
+            self.held_rot[balls] = self._released_rot(free_rot)[balls]
             self.mode[balls] = BALL
         # The verb's own level at these adverbs: the lowest its foot gets while flat, taken at toe-off.
         flat = (self.mode == BALL) & (turn == 0.0)
         self.ground = np.where(opening, np.inf, self.ground)
         self.ground = np.where(flat, np.minimum(self.ground, lift), self.ground)
         self.turn = turn
+        self.rising = np.where(follows, 0.0, np.maximum(_lowered(lift, self.hover), 0.0) * turn)
         self.prev_free[:] = free_pos
         shown, wanted = self._shown(base, height, follows, free_rot, free_wanted, turn)
         return shown, wanted
@@ -212,8 +227,15 @@ class FootPlanter:
         self.since[which] = 0.0
         self.settle[which] = True
 
+    def _released_rot(self, free_rot: np.ndarray) -> np.ndarray:
+        """The verb's foot orientations turned by what is left of the turn each had when it was let go."""
+        k = _spring(1.0, 0.0, self.rot_since, SWING_HALFLIFE)
+        return _turn(self.rel_rot, np.broadcast_to(np.eye(3), self.rel_rot.shape), 1.0 - k) @ free_rot
+
     def _shown(self, base, height, follows, free_rot, free_wanted, turn) -> tuple[np.ndarray, np.ndarray]:
         """Where each effector is shown in its current mode, and its foot's wanted orientation."""
+        free_rot = self._released_rot(free_rot)
+        free_wanted = self._tilt(base[..., [0, 2]]) @ free_rot
         shown = base + self._offset()
         low = self.floor.height(shown[..., [0, 2]]) + height
         shown[..., 1] = np.where(follows, shown[..., 1], np.maximum(shown[..., 1], low))
@@ -240,8 +262,11 @@ class FootPlanter:
         return np.where(self.settle[..., None], x, 0.0)
 
     def _shown_held(self) -> np.ndarray:
-        """Where a held foot is shown: its target plus the landing's settling height."""
-        return self.target + self._held_offset()
+        """Where a held foot is shown: its target plus the landing's settling height, and, as it rolls off its
+        ball, raised as the verb raises it (``rising``), so it leaves the ground with the verb's knee."""
+        out = self.target + self._held_offset()
+        out[..., 1] += np.where(self.mode == BALL, self.rising, 0.0)
+        return out
 
     # ----- one frame, legs solved -------------------------------------------------------------
     def step(
@@ -257,9 +282,29 @@ class FootPlanter:
         gpos, grot = forward_kinematics(self.verb.skeleton.parents, rotations, translations)
         free_pos, free_rot = gpos[:, self.tips], quat.to_matrix(grot[:, self.chains.end])
         targets, wanted = self.targets(free_pos, free_rot, generic, dt)
-        risen = _ride_floor(self.verb, self.chains, self.floor, translations, gpos, grot, targets)
-        result = ik.solve(self.chains, rotations, risen, targets, self._tilts(wanted, free_rot))
+        rise = _rise(self.verb, self.floor, gpos[:, self.verb.encoding.body_root], targets)
+        drop = self.drop_for(gpos[:, self.chains.upper], rise, targets, wanted, dt)
+        risen = _ride_floor(self.verb, self.chains, translations, grot, rise)
+        result = ik.solve(self.chains, rotations, risen, targets, self._tilts(wanted, free_rot), min_drop=drop)
         return result.rotations, result.translations, result
+
+    def drop_for(
+        self, hips: np.ndarray, rise: np.ndarray, targets: np.ndarray, wanted: np.ndarray, dt: float | np.ndarray
+    ) -> np.ndarray:
+        """How far to lower each creature's root this frame, ``(C,)``: what its legs need to reach their targets
+        from the hips ``(C, L, 3)`` (the verb's, before the pelvis rides up by ``rise (C,)``), as
+        :func:`~adverbs.kinematics.ik.solve` reckons it, but let go no faster than a ``DROP_HALFLIFE``
+        decay, so the body does not spring up when a stretched leg lets its foot go."""
+        goals = targets - np.einsum("...ij,...j->...i", wanted, self.chains.tip_offset)
+        d = goals - hips
+        d[..., 1] -= rise[:, None]
+        reach = self.chains.reach
+        across = np.hypot(d[..., 0], d[..., 2])
+        need = np.where(across < reach, -d[..., 1] - np.sqrt(np.maximum(reach**2 - across**2, 0.0)), 0.0)
+        need = np.minimum(np.maximum(need.max(axis=-1), 0.0), ik.MAX_DROP * float(reach.min()))
+        fade = np.exp(-_LN2 * np.broadcast_to(np.asarray(dt, dtype=float), need.shape) / DROP_HALFLIFE)
+        self.drop = np.maximum(need, self.drop * fade)
+        return self.drop
 
     @staticmethod
     def _tilts(wanted: np.ndarray, free_rot: np.ndarray) -> np.ndarray:
@@ -298,14 +343,17 @@ def _turn(held: np.ndarray, free: np.ndarray, w: np.ndarray) -> np.ndarray:
     return quat.to_matrix(q)
 
 
-def _ride_floor(verb: Verb, chains: ik.LegChains, floor: Floor, translations, gpos, grot, feet) -> np.ndarray:
-    """Translations with the pelvis raised along world up by the floor's height under the body root, or under
-    the lower foot (``feet (..., L, 3)``, the effectors' targets) where that is lower: up a slope the body
-    stays low enough for the trailing leg to reach its foot."""
+def _rise(verb: Verb, floor: Floor, root: np.ndarray, feet: np.ndarray) -> np.ndarray:
+    """How far the pelvis rides up: the floor's height under the body root ``root (..., 3)``, or under the lower
+    foot (``feet (..., L, 3)``, the effectors' targets) where that is lower, so up a slope the body stays low
+    enough for the trailing leg to reach its foot; relative to the verb's own floor."""
+    return np.minimum(floor.height(root[..., [0, 2]]), floor.height(feet[..., [0, 2]]).min(axis=-1)) - verb.floor
+
+
+def _ride_floor(verb: Verb, chains: ik.LegChains, translations, grot, rise) -> np.ndarray:
+    """Translations with the pelvis raised along world up by ``rise (...,)``."""
     t = np.array(translations, dtype=float)
     lift = chains.above[-1]
-    under = floor.height(gpos[..., verb.encoding.body_root, :][..., [0, 2]])
-    rise = np.minimum(under, floor.height(feet[..., [0, 2]]).min(axis=-1)) - verb.floor
     up = np.broadcast_to([0.0, 1.0, 0.0], rise.shape + (3,))
     parent = verb.skeleton.parents[lift]
     if parent >= 0:
@@ -407,21 +455,32 @@ def plant_feet_many(
     dt = np.array([1.0 / clip.fps for clip, _, _ in motions])
     tg, wanted = np.empty_like(free_pos), np.empty_like(free_rot)
     modes, turns = np.empty(free_pos.shape[:3], dtype=int), np.empty(free_pos.shape[:3])
+    roots = np.empty((longest, c, 3))
+    hips = np.empty((longest, c, len(tips), 3))
+    for i, ((clip, _, _), (gpos, _)) in enumerate(zip(motions, fk)):
+        n = clip.num_frames
+        roots[:n, i], hips[:n, i] = gpos[:, verb.encoding.body_root], gpos[:, planter.chains.upper]
+        roots[n:, i], hips[n:, i] = roots[n - 1, i], hips[n - 1, i]
+    rises, drops = np.empty((longest, c)), np.empty((longest, c))
     for f in range(longest):
         tg[f], wanted[f] = planter.targets(free_pos[f], free_rot[f], g[f], dt)
         modes[f], turns[f] = planter.mode, planter.turn
-    rots, trans, targets, tilts, starts, masks = [], [], [], [], [0], []
-    for i, ((clip, _, _), (gpos, grot)) in enumerate(zip(motions, fk)):
+        rises[f] = _rise(verb, floor, roots[f], tg[f])
+        drops[f] = planter.drop_for(hips[f], rises[f], tg[f], wanted[f], dt)
+    rots, trans, targets, tilts, starts, masks, min_drops = [], [], [], [], [0], [], []
+    for i, ((clip, _, _), (_, grot)) in enumerate(zip(motions, fk)):
         n = clip.num_frames
         masks.append(_mode_masks(modes[:n, i], turns[:n, i]))
         rots.append(clip.rotations)
-        trans.append(_ride_floor(verb, planter.chains, floor, clip.translations, gpos, grot, tg[:n, i]))
+        trans.append(_ride_floor(verb, planter.chains, clip.translations, grot, rises[:n, i]))
         targets.append(tg[:n, i])
         tilts.append(planter._tilts(wanted[:n, i], free_rot[:n, i]))
+        min_drops.append(drops[:n, i])
         starts.append(starts[-1] + n)
     result = ik.solve(
-        verb.leg_chains, np.concatenate(rots), np.concatenate(trans), np.concatenate(targets), np.concatenate(tilts)
-    )
+        verb.leg_chains, np.concatenate(rots), np.concatenate(trans), np.concatenate(targets), np.concatenate(tilts),
+        min_drop=np.concatenate(min_drops),
+    )  # fmt: skip
     out = []
     for (clip, _, _), (held, flat, heel), a, b in zip(motions, masks, starts[:-1], starts[1:]):
         unreachable = int(np.count_nonzero(result.unreachable[a:b]))
@@ -471,9 +530,9 @@ class FootMetrics:
     began. ``heel_drift (Q,)``: the same for the ankle over each phase where the foot is flat.
     ``lowest``: the lowest any constrained effector gets, against the floor plus its contact height
     (negative: through the floor). ``held_height``: the largest distance of a held ball from the floor
-    plus its contact height. ``slide (R,)``: per release, how far the foot moves horizontally before it
-    rises ``LIFTED`` above its contact height (``free_slide``: the same for the verb's own motion, if
-    given). ``release_speed (R,)``: the foot's largest speed over the
+    plus its contact height while the foot is flat (rolling off, it rises with the verb's). ``slide (R,)``: per release, how far the foot moves horizontally before it
+    rises ``LIFTED`` above its contact height, on its way up (``free_slide``: the same for the verb's own
+    motion, if given). ``release_speed (R,)``: the foot's largest speed over the
     three frames after each release. ``unreachable``: effector-frames the IK could not reach.
     """
 
@@ -504,9 +563,9 @@ def measure_feet(
 ) -> FootMetrics:
     """:class:`FootMetrics` of ``planted`` (what :func:`plant_feet` returned with ``report``) on ``floor``.
 
-    With ``free``, the verb's own motion that was planted, ``free_slide`` is how far its toe travels
-    horizontally over each swing while under ``LIFTED`` above its own contact level (the lowest it was
-    over the hold before): the slide the verb itself has (a foot that sweeps the ground in a pivot turn).
+    With ``free``, the verb's own motion that was planted, ``free_slide`` measures its toe the same way
+    against its own contact level (the lowest it was over the hold before): the slide the verb itself
+    has (a foot that sweeps the ground in a pivot turn).
     """
     floor = FlatFloor(verb.floor) if floor is None else floor
     gpos = planted.global_positions()
@@ -518,19 +577,17 @@ def measure_feet(
     speed = np.zeros(toe.shape[:2])
     speed[1:] = np.linalg.norm(np.diff(toe, axis=0), axis=-1) * planted.fps
     releases = [(i, a, b) for i in range(len(tips)) for a, b in report.phases[i] if b < planted.num_frames]
-    held = [np.abs(above[a:b, i]).max() for i in range(len(tips)) if not follows[i] for a, b in report.phases[i]]
+    held = [np.abs(above[a:b, i]).max() for i in range(len(tips)) if not follows[i] for a, b in report.flat[i]]
     free_slide = np.zeros(0)
     if free is not None:
         ftoe = free.global_positions()[:, tips]
         lift = ftoe[..., 1] - verb.floor - height
-        step = np.zeros(lift.shape)
-        step[1:] = np.linalg.norm(np.diff(ftoe[..., [0, 2]], axis=0), axis=-1)
-        swept = []
+        # Against the verb's own contact level: the lowest its toe was over the hold before each release.
+        own = np.full(lift.shape, np.inf)
         for i, a, b in releases:
             nxt = min([s for s, _ in report.phases[i] if s > a] or [len(ftoe)])
-            level = lift[a:b, i].min()  # the verb's own contact level over the hold before
-            swept.append(step[b:nxt, i][lift[b:nxt, i] - level < LIFTED].sum())
-        free_slide = np.array(swept)
+            own[b:nxt, i] = lift[b:nxt, i] - lift[a:b, i].min()
+        free_slide = _slides(ftoe, own, releases, report.phases)
     return FootMetrics(
         np.concatenate([planted_drift(toe[:, i], report.phases[i]) for i in range(len(tips))]),
         np.concatenate([planted_drift(ankle[:, i], report.flat[i]) for i in range(len(tips))]),
@@ -544,13 +601,13 @@ def measure_feet(
 
 
 def _slides(toe: np.ndarray, above: np.ndarray, releases: list, phases: list) -> np.ndarray:
-    """Per release ``(leg, start, stop)``: how far the toe moves horizontally from its last held frame
-    while it stays under ``LIFTED`` above its contact height (``above (F, L)``), until the next hold."""
+    """Per release ``(leg, start, stop)``: how far the toe travels horizontally while under ``LIFTED`` above its
+    contact height (``above (F, L)``) on its way up: from its last held frame to the swing's highest point
+    (before the next hold), so a foot that drags before it lifts counts and a landing does not."""
     out = []
     for i, a, b in releases:
         nxt = min([s for s, _ in phases[i] if s > a] or [len(toe)])
-        e = b
-        while e < nxt and above[e, i] < LIFTED:
-            e += 1
-        out.append(float(np.linalg.norm(toe[b - 1 : e, i][:, [0, 2]] - toe[b - 1, i][[0, 2]], axis=-1).max()))
+        apex = b + int(np.argmax(above[b:nxt, i])) if nxt > b else b
+        steps = np.linalg.norm(np.diff(toe[b - 1 : apex + 1, i][:, [0, 2]], axis=0), axis=-1)
+        out.append(float(steps[above[b : apex + 1, i] < LIFTED].sum()))
     return np.array(out)
