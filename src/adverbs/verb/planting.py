@@ -230,6 +230,9 @@ class FootPlanter:
     def _released_rot(self, free_rot: np.ndarray) -> np.ndarray:
         """The verb's foot orientations turned by what is left of the turn each had when it was let go."""
         k = _spring(1.0, 0.0, self.rot_since, SWING_HALFLIFE)
+        k = np.where(k < 1e-9, 0.0, k)  # long let go: nothing left to turn
+        if not k.any():
+            return free_rot
         return _turn(self.rel_rot, np.broadcast_to(np.eye(3), self.rel_rot.shape), 1.0 - k) @ free_rot
 
     def _shown(self, base, height, follows, free_rot, free_wanted, turn) -> tuple[np.ndarray, np.ndarray]:
@@ -336,11 +339,15 @@ def _lowered(lift: np.ndarray, hover: np.ndarray) -> np.ndarray:
 
 
 def _turn(held: np.ndarray, free: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """Rotations ``(..., 3, 3)`` turned from ``held`` to ``free`` by weights ``w (...)`` (slerp)."""
-    if not np.any(w > 0):
-        return held
-    q = quat.slerp(quat.from_matrix(held), quat.from_matrix(free), w)
-    return quat.to_matrix(q)
+    """Rotations ``(..., 3, 3)`` turned from ``held`` to ``free`` by weights ``w (...)`` (slerp; only where
+    ``0 < w < 1``, the rest is one or the other)."""
+    w = np.broadcast_to(w, np.broadcast_shapes(held.shape[:-2], free.shape[:-2], np.shape(w)))
+    out = np.where((w >= 1.0)[..., None, None], free, held)
+    part = (w > 0.0) & (w < 1.0)
+    if part.any():
+        a, b = np.broadcast_to(held, out.shape)[part], np.broadcast_to(free, out.shape)[part]
+        out[part] = quat.to_matrix(quat.slerp(quat.from_matrix(a), quat.from_matrix(b), w[part]))
+    return out
 
 
 def _rise(verb: Verb, floor: Floor, root: np.ndarray, feet: np.ndarray) -> np.ndarray:
