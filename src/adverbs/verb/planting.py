@@ -117,7 +117,7 @@ class FootPlanter:
         self.spent = np.zeros((c, n), dtype=bool)
         self.drop = np.zeros(c)  # how far the root is lowered (decaying once no leg needs it)
         self.rising = np.zeros((c, n))  # how far a rolling ball is raised with the verb's
-        self.rel_rot = np.tile(np.eye(3), (c, n, 1, 1))  # a released foot's orientation, relative to the verb's
+        self.rel_vec = np.zeros((c, n, 3))  # a released foot's orientation relative to the verb's (rotation vector)
         self.rot_since = np.full((c, n), 1e9)  # seconds since then (long ago: nothing left)  # this hold's foot was let go early: the verb lifted it
         self.settle = np.zeros((c, n), dtype=bool)  # the offset being decayed is a landing's
         self.hover = np.zeros((c, n))  # the verb's contact level, lowering the free foot
@@ -179,7 +179,9 @@ class FootPlanter:
         self.rising = np.where(follows, 0.0, np.maximum(_lowered(lift, self.hover), 0.0) * self.turn)
         shown, wanted = self._shown(base, height, follows, free_rot, free_wanted, self.turn)  # before anything switches
         if closing.any():  # let go: what the foot's orientation had still to turn decays from here
-            self.rel_rot[closing] = wanted[closing] @ np.swapaxes(free_wanted[closing], -1, -2)
+            rel = wanted[closing] @ np.swapaxes(free_wanted[closing], -1, -2)
+            q = quat.from_matrix(rel)
+            self.rel_vec[closing] = quat.log(np.where(q[..., 3:] < 0.0, -q, q))  # the short way round
             self.rot_since[closing] = 0.0
             self.offset[closing] = shown[closing] - base[closing]  # let go from where it was shown
             self.offset_vel[closing] = -vel[closing] * _AT_REST  # leaves from rest horizontally, rises as the verb lifts it
@@ -233,7 +235,7 @@ class FootPlanter:
         k = np.where(k < 1e-9, 0.0, k)  # long let go: nothing left to turn
         if not k.any():
             return free_rot
-        return _turn(self.rel_rot, np.broadcast_to(np.eye(3), self.rel_rot.shape), 1.0 - k) @ free_rot
+        return quat.rotvec_matrix(self.rel_vec * k[..., None]) @ free_rot
 
     def _shown(self, base, height, follows, free_rot, free_wanted, turn) -> tuple[np.ndarray, np.ndarray]:
         """Where each effector is shown in its current mode, and its foot's wanted orientation."""
