@@ -3,7 +3,16 @@ motions, files, specs, measured adverbs, constraints and planted feet."""
 
 from .constraints import Constraint
 from .fit import build_from_spec, build_verb
-from .planting import PlantingReport, foot_drift, plant_feet, plant_feet_many, planted_drift
+from .planting import (
+    FootMetrics,
+    FootPlanter,
+    PlantingReport,
+    foot_drift,
+    measure_feet,
+    plant_feet,
+    plant_feet_many,
+    planted_drift,
+)
 from .sampling import SamplingState, advance, dofs_reference, sample, sample_reference
 from .spec import SpecError, load_spec
 from .store import load_verb, save_verb
@@ -15,6 +24,8 @@ __all__ = [
     "Constraint",
     "Example",
     "ExampleRecord",
+    "FootMetrics",
+    "FootPlanter",
     "PlantingReport",
     "SamplingState",
     "SpecError",
@@ -26,6 +37,7 @@ __all__ = [
     "foot_drift",
     "load_spec",
     "load_verb",
+    "measure_feet",
     "plant_feet",
     "plant_feet_many",
     "planted_drift",

@@ -372,13 +372,14 @@ def _ride_floor(verb: Verb, chains: ik.LegChains, translations, grot, rise) -> n
 
 
 def frame_generic(verb: Verb, keytimes: np.ndarray, times: np.ndarray) -> np.ndarray:
-    """Generic time of each clock time ``times (F,)`` of a motion of ``verb`` with ``keytimes (N,)``."""
+    """Generic time of clock times ``times (...)`` of motions of ``verb`` with ``keytimes (..., N)``: the frames
+    of one motion (``(F,)`` with ``(N,)``), or each creature of a crowd (``(C,)`` with ``(C, N)``)."""
     k = np.asarray(keytimes, dtype=float)
     t = np.asarray(times, dtype=float)
-    t = t % k[-1] if verb.cyclic else np.clip(t, 0.0, k[-1])
+    t = t % k[..., -1] if verb.cyclic else np.clip(t, 0.0, k[..., -1])
     g = timewarp.generic_time(t, k, verb.generic_keytimes)
     if not verb.cyclic:
-        g = np.where(np.asarray(times) >= k[-1] - 1e-9, 1.0, g)
+        g = np.where(np.asarray(times) >= k[..., -1] - 1e-9, 1.0, g)
     return g
 
 
