@@ -22,6 +22,8 @@ demo: $(STAMP)
 	$(BIN)/adverbs build specs/cmu_walk.toml -o out/cmu_walk.verb
 	$(BIN)/adverbs synth out/cmu_walk.verb --adverb speed=2.1 --adverb turn=0 --cycles 4 -o out/cmu_walk_faster_than_any_example.bvh
 	$(BIN)/adverbs evaluate out/cmu_walk.verb --png out/cmu_walk_evaluate.png
+	$(BIN)/adverbs build specs/cmu_run.toml -o out/cmu_run.verb
+	$(BIN)/adverbs synth out/cmu_run.verb --adverb speed=3.0 --adverb turn=60 --cycles 4 --floor slope:5 -o out/cmu_run_turning_left_uphill.bvh
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q

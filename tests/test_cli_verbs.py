@@ -72,6 +72,8 @@ def test_synth_plants_feet_by_default_on_any_floor(tmp_path):
     assert run("build", SPECS / "bandai_styled_walk.toml", "-o", verb).returncode == 0
     d = json.loads(run("describe", verb, "--json").stdout)
     assert [c["effector"] for c in d["constraints"]] == ["Toes_L", "Toes_R"]
+    assert [h["effector"] for h in d["holds"]] == ["Toes_L", "Toes_R"]
+    assert all(h["open"] < h["toe_down"] < h["heel_off"] < h["close"] and 0.03 < h["height"] < 0.06 for h in d["holds"])
     args = ["synth", verb, "--adverb", "valence=0.5", "--adverb", "turn=20", "--cycles", "2"]
     r = run(*args, "-o", tmp_path / "ik.bvh")
     assert r.returncode == 0 and "feet planted: toe drift median 0.0 / max 0.0 mm" in r.stdout, r.stdout

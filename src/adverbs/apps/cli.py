@@ -204,6 +204,7 @@ def describe(verb: Verb) -> dict:
         "num_keytimes": verb.num_keytimes,
         "keytime_names": list(verb.keytime_names),
         "constraints": [c.to_dict() for c in verb.constraints],
+        "holds": [h.to_dict() for h in verb.holds],
         "floor": verb.floor,
         "fps": verb.fps,
         "skeleton": {"joints": list(verb.skeleton.names), "units": verb.skeleton.units},
@@ -232,10 +233,16 @@ def _print_describe(d: dict) -> None:
     print(f"  {d['dofs']} DOFs ({d['encoding']}), NumCP {d['num_cp']}, {d['fps']:g} fps")
     print(f"  keytimes: {', '.join(d['keytime_names'])}")
     names = d["keytime_names"]
-    for c in d["constraints"]:
+    for c, h in zip(d["constraints"], d["holds"]):
         print(
             f"  constraint: {c['effector']} held from '{names[c['open']]}' ({c['open']}) to '{names[c['close']]}' ({c['close']})"
         )
+        if h["height"] is not None:
+            print(
+                f"    in generic time (the examples' means): lands {h['open']:.3f}, flat {h['toe_down']:.3f}, heel "
+                f"lifts {h['heel_off']:.3f}, toe-off {h['close'] % 1 if d['cyclic'] else h['close']:.3f}; "
+                f"toe joint {1000 * h['height']:.0f} mm above the floor while down"
+            )
     print("  adverbs:")
     for a in d["adverbs"]:
         how = f"measured: {a['measure']['kind']}" if a["measure"] else "given by hand"
