@@ -7,7 +7,7 @@ import pytest
 from conftest import aligned
 
 from adverbs import AdverbsError, ik
-from adverbs.verb.constraints import Constraint, phases
+from adverbs.verb.constraints import Constraint
 from adverbs.apps.evaluate import obedience_points
 from adverbs.kinematics.floor import FlatFloor, FunctionFloor, HeightMapFloor, SlopeFloor, parse_floor
 from adverbs.verb.planting import effector_joints, foot_drift, measure_feet, plant_feet, planted_drift
@@ -29,14 +29,6 @@ def test_constraints_are_found_from_contacts(verbs):
     assert [c.effector for c in styled.constraints] == ["Toes_L", "Toes_R"]
     reach, _ = verbs["bandai_reach"]  # standing: both feet down from the first keytime to the last
     assert reach.constraints == (Constraint("Toes_L", 0, 2), Constraint("Toes_R", 0, 2))
-
-
-def test_phases_wrap_around_cycles():
-    k = np.array([0.0, 0.5, 1.0])
-    assert phases(Constraint("x", 0, 1), k, 2.0, True) == [(0.0, 0.5), (1.0, 1.5)]
-    assert phases(Constraint("x", 1, 0), k, 2.0, True) == [(0.5, 1.0), (1.5, 2.0)]
-    assert phases(Constraint("x", 0, 2), k, 2.0, False) == [(0.0, 1.0)]
-    assert phases(Constraint("x", 0, 2), k, 2.0, True) == [(0.0, 2.0)]  # a foot down all cycle: held throughout
 
 
 def test_drift_measure():

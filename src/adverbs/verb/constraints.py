@@ -7,6 +7,10 @@ left-foot cycle stays down into the next cycle (``close < open``).
 Constraints are found automatically when a spec does not name them: from keytimes named after
 contact events (``"left strike"`` … ``"left toe-off"``), or, for feet that stay planted through every
 example (standing motions such as a reach), from the first keytime to the last.
+
+A :class:`Hold` is what the planter does with a constraint on a foot, measured from the examples'
+contacts at build (:func:`derive_holds`): when the foot lands, is flat, lifts its heel and leaves the
+ground, in generic time, and how high its toe and ankle joints sit above the floor while down.
 """
 
 from __future__ import annotations
@@ -65,7 +69,8 @@ def auto_constraints(keytime_names: Sequence[str], clips: Sequence[Clip], cyclic
 
     A foot's constraint opens at its first ``"<side> strike"`` and closes at its next ``"<side> toe-off"``
     or, where toe-offs are not keytimes (at 30 fps a fast walk's double support can be shorter than a
-    frame), at the next strike of another foot: the heel is lifting by then.
+    frame), at the next strike of another foot; the hold the planter uses then closes at the toe-off
+    measured in each example (:func:`derive_holds`), so a run is never held through its flight.
     """
     skel = clips[0].skeleton
     feet = skel.feet()
@@ -100,31 +105,6 @@ def _effector(foot) -> int:
     ankle instead would drag the toes backwards while the heel rises.
     """
     return foot.toe if foot.toe is not None else foot.ankle
-
-
-def phases(constraint: Constraint, keytimes: np.ndarray, duration: float, cyclic: bool) -> list[tuple[float, float]]:
-    """Clock intervals ``[open, close)`` of ``constraint`` over ``duration`` seconds of a verb instance.
-
-    ``keytimes (N,)`` are the verb's at the current adverbs; cyclic verbs repeat every ``K_N``.
-    A constraint already open at time 0 (wrapping in from a previous cycle) starts at 0; one that
-    closes where it opens again (a foot down all cycle) makes a single phase.
-    """
-    k0, k1 = float(keytimes[constraint.open]), float(keytimes[constraint.close])
-    if not cyclic:
-        return [(k0, min(k1, duration))] if k0 < duration else []
-    cycle = float(keytimes[-1])
-    length = (k1 - k0) % cycle or cycle  # open and close at the same event of the cycle: held throughout
-    out = []
-    start = k0 - cycle
-    while start < duration:
-        a, b = max(start, 0.0), min(start + length, duration)
-        if b > a:
-            if out and a <= out[-1][1] + 1e-9:  # held through the cycle: one long phase, never let go
-                out[-1] = (out[-1][0], b)
-            else:
-                out.append((a, b))
-        start += cycle
-    return out
 
 
 @dataclass(frozen=True)

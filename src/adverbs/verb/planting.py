@@ -6,28 +6,32 @@ frame. Offline planting (:func:`plant_feet`, :func:`plant_feet_many`) is the sam
 every frame of a clip, then one batched IK solve: it gives the same motion as feeding the frames
 one by one (``tests/test_feet.py``).
 
-Per effector, with ``g`` the frame's generic time and :class:`~adverbs.verb.constraints.Hold` ``h``:
+Per effector, with ``g`` the frame's generic time and :class:`~adverbs.verb.constraints.Hold` ``h``
+(its times blended at the creature's adverb point from the examples' own contacts):
 
-* **Held** (``h.open ≤ g < h.close``): when the hold opens, the target is where the foot is shown
-  then, horizontally, and ``h.height`` (its height above the sole, from the examples) above the
-  floor under it — the floor, not the verb, says how high a planted foot is. The foot's orientation
-  is held too until ``h.heel_off``, so the heel stays where it landed; from heel-off to toe-off it
-  turns back to the verb's (smoothstep in generic time) about the held ball of the foot.
-* **Free** (swing, flight): the verb's effector, lowered by how far the verb's foot hovered above
-  its contact height at its last landing (at extrapolated adverbs the verb can lift the whole stance
-  off its floor), never below the floor plus the contact height.
-* **Switching** between the two is inertialized: the difference between where the foot was shown and
-  where the new rule puts it is an offset that decays to zero as a critically damped spring
-  (``x(t) = (x₀ + (v₀ + y x₀) t) e^{−y t}``). At release ``v₀`` cancels the verb's foot velocity,
-  so the foot leaves the ground from rest, continuous in position and speed; the vertical part decays
-  faster than the horizontal one, so a released foot lifts before it travels. At landing the
-  horizontal offset is zero (the target is where the foot is) and the vertical one settles.
+* **Heel strike** (``g`` reaches ``h.open``): the ankle is held where it is shown, at its contact
+  height above the floor, while the foot rolls down as the verb turns it. A foot that lands on its
+  ball (a run) skips this.
+* **Foot flat** (the ball reaches the floor): the ball is held where it is, ``h.height`` (its height
+  above the sole, from the examples) above the floor under it — the floor, not the verb, says how high
+  a planted foot is — and so is the foot's orientation, so the heel stays where it landed.
+* **Roll-off** (from ``h.heel_off``, or as soon as the verb lifts the ball off its own level): the foot
+  turns back to the verb's orientation about the held ball (smoothstep), the ball rising as the verb
+  raises it; it is let go at ``h.close`` (toe-off), or once the verb has lifted it ``LIFTS_OFF``.
+* **Free** (swing, flight): the verb's effector, lowered near the ground by how far the verb's stance
+  hovered over its floor (at extrapolated adverbs the verb can lift the whole stance), never below the
+  floor plus the contact height.
+* **Switches are inertialized**: the gap between where the foot was shown and where the new rule puts
+  it is an offset that decays to zero as a critically damped spring (``x(t) = (x₀ + (v₀ + y x₀) t)
+  e^{−y t}``). At release ``v₀`` cancels the verb's horizontal foot velocity, so the foot leaves from
+  rest, and the vertical part decays faster than the horizontal one, so it lifts before it travels; the
+  turn the foot still had to make decays the same way. At landing nothing slides: only the height settles.
 
 The legs are then solved by :func:`adverbs.kinematics.ik.solve` with each foot's target and wanted
-orientation; a target out of reach lowers the root. Heights follow the floor: a point the verb
-carries ``h`` above its own flat ground is put ``h`` above the floor under it, and the pelvis rides
-the floor under itself, so a walk goes up and down a slope; on a floor that is not flat the feet are
-tilted to the surface.
+orientation. The root is lowered where a leg cannot reach its target and eases back up (``DROP_HALFLIFE``).
+Heights follow the floor: a point the verb carries ``h`` above its own flat ground is put ``h`` above
+the floor under it; the pelvis rides the floor under itself, or under the lower foot up a slope; on a
+floor that is not flat the feet are tilted to the surface.
 """
 
 from __future__ import annotations
@@ -83,9 +87,12 @@ class PlantingReport:
 class FootPlanter:
     """Planted feet for ``creatures`` creatures of one verb, advanced one frame at a time.
 
-    State per creature and effector ``(C, L)``: whether it is held, its target and held orientation,
-    the offset being decayed (start, velocity, time since), the verb's hover at the last landing and
-    the verb's effector position in the previous frame (for its velocity).
+    State per creature and effector ``(C, L)``: what the foot is doing (``mode``: :data:`FREE`,
+    :data:`HEEL`, :data:`BALL`) and how far it has rolled off (``turn``), its target and held
+    orientation, the offset being decayed (start, velocity, time since), the turn left over from its
+    release, the verb's contact level (``hover``) and the verb's effector position in the previous frame
+    (for its velocity); per creature, the root drop. ``weights (C, E)`` set the hold times (the
+    examples' own, blended at each creature's adverb point); without them, their mean.
     """
 
     def __init__(self, verb: Verb, creatures: int = 1, floor: Floor | None = None, weights: np.ndarray | None = None):
@@ -114,11 +121,11 @@ class FootPlanter:
         self.offset = np.zeros((c, n, 3))
         self.offset_vel = np.zeros((c, n, 3))
         self.since = np.zeros((c, n, 3))
-        self.spent = np.zeros((c, n), dtype=bool)
+        self.spent = np.zeros((c, n), dtype=bool)  # this hold's foot was let go early: the verb lifted it
         self.drop = np.zeros(c)  # how far the root is lowered (decaying once no leg needs it)
         self.rising = np.zeros((c, n))  # how far a rolling ball is raised with the verb's
         self.rel_vec = np.zeros((c, n, 3))  # a released foot's orientation relative to the verb's (rotation vector)
-        self.rot_since = np.full((c, n), 1e9)  # seconds since then (long ago: nothing left)  # this hold's foot was let go early: the verb lifted it
+        self.rot_since = np.full((c, n), 1e9)  # seconds since then (long ago: nothing left)
         self.settle = np.zeros((c, n), dtype=bool)  # the offset being decayed is a landing's
         self.hover = np.zeros((c, n))  # the verb's contact level, lowering the free foot
         self.ground = np.zeros((c, n))  # its lowest point over the current hold: the next hover
