@@ -49,7 +49,7 @@ class Contacts:
 
     def intervals(self, foot: str | int) -> list[tuple[int, int]]:
         """Contact intervals ``[start, stop)`` in frames of one foot."""
-        return _runs(self.planted[:, self.foot_index(foot)])
+        return runs(self.planted[:, self.foot_index(foot)])
 
     def strikes(self, foot: str | int) -> np.ndarray:
         """Frames of the foot's heel strikes (contacts that begin inside the clip)."""
@@ -162,18 +162,19 @@ def _low_and_still(pts: np.ndarray, fps: float, height: float, speed: float) -> 
     return low & still
 
 
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+def runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """The runs of ``True`` in a mask ``(F,)``, as frame ranges ``[start, stop)``."""
     d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
     return list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist()))
 
 
 def _clean(mask: np.ndarray, gap: int, shortest: int) -> np.ndarray:
     mask = mask.copy()
-    runs = _runs(mask)
-    for (_, b), (c, _) in pairwise(runs):
+    spans = runs(mask)
+    for (_, b), (c, _) in pairwise(spans):
         if c - b <= gap:
             mask[b:c] = True
-    for a, b in _runs(mask):
+    for a, b in runs(mask):
         if b - a < shortest:
             mask[a:b] = False
     return mask

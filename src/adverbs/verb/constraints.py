@@ -24,7 +24,7 @@ from ..errors import AdverbsError
 from ..interp import timewarp
 from ..kinematics.skeleton import Skeleton
 from ..motion.clip import Clip
-from ..motion.contacts import find_contacts, point_contacts
+from ..motion.contacts import find_contacts, point_contacts, runs
 
 STANDING = 0.95  # fraction of frames a foot must be down in every example to count as planted throughout
 HEEL_LIFTS = 0.015  # metres: a heel this far above its contact level has lifted (heel-off)
@@ -265,18 +265,9 @@ def derive_holds(
 
 def _run_near(mask: np.ndarray, frame: int) -> tuple[int, int] | None:
     """The run of ``mask`` that contains ``frame`` or begins within ``NEAR_OPEN`` frames after it."""
-    d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
-    starts, stops = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
-    for a, b in zip(starts, stops):
-        if a <= frame < b or frame < a <= frame + NEAR_OPEN:
-            return int(a), int(b)
-    return None
+    return next(((a, b) for a, b in runs(mask) if a <= frame < b or frame < a <= frame + NEAR_OPEN), None)
 
 
 def _run_overlapping(mask: np.ndarray, start: int, stop: int) -> tuple[int, int] | None:
     """The first run of ``mask`` that overlaps frames ``[start, stop)``."""
-    d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
-    for a, b in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)):
-        if a < stop and b > start:
-            return int(a), int(b)
-    return None
+    return next(((a, b) for a, b in runs(mask) if a < stop and b > start), None)

@@ -47,6 +47,7 @@ from ..kinematics import ik, quat
 from ..kinematics.fk import forward_kinematics
 from ..kinematics.floor import FlatFloor, Floor, tilt
 from ..motion.clip import Clip
+from ..motion.contacts import runs
 from .tables import Verb
 
 LIFT_HALFLIFE = 0.015  # seconds: the vertical part of a released foot's offset halves this fast
@@ -390,11 +391,6 @@ def frame_generic(verb: Verb, keytimes: np.ndarray, times: np.ndarray) -> np.nda
     return g
 
 
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
-    d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
-    return list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist()))
-
-
 def phase_masks(
     verb: Verb, keytimes: np.ndarray, clip: Clip, weights: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -423,7 +419,7 @@ def phase_frames(
 ) -> list[list[tuple[int, int]]]:
     """Each effector's held phases in frames ``[start, stop)`` of ``clip`` (a motion of ``verb`` with ``keytimes``)."""
     held = phase_masks(verb, keytimes, clip, weights)[0]
-    return [_runs(held[:, i]) for i in range(held.shape[1])]
+    return [runs(held[:, i]) for i in range(held.shape[1])]
 
 
 def plant_feet(
@@ -509,8 +505,8 @@ def plant_feet_many(
             )
         planted = clip.replace(rotations=result.rotations[a:b], translations=result.translations[a:b])
         report = PlantingReport(
-            [_runs(held[:, i]) for i in range(held.shape[1])], result.root_drop[a:b], unreachable,
-            warnings, [_runs(flat[:, i]) for i in range(flat.shape[1])], [_runs(heel[:, i]) for i in range(heel.shape[1])],
+            [runs(held[:, i]) for i in range(held.shape[1])], result.root_drop[a:b], unreachable,
+            warnings, [runs(flat[:, i]) for i in range(flat.shape[1])], [runs(heel[:, i]) for i in range(heel.shape[1])],
         )  # fmt: skip
         out.append((planted, report))
     return out
