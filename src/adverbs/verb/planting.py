@@ -159,9 +159,6 @@ class FootPlanter:
         inside, turn = hold_modes(self.verb.cyclic, np.asarray(generic, dtype=float)[:, None], self.opens, self.times)
         # How far the verb's effector is above its contact height (its own floor at these adverbs).
         lift = np.where(follows, 0.0, free_pos[..., 1] - verb.floor - height)
-        # A ball the verb lifts off its level rolls the foot off it too, whatever the examples' heel-off says.
-        up = np.clip((_lowered(lift, self.hover) - STILL_DOWN) / (LIFTS_OFF - STILL_DOWN), 0.0, 1.0)
-        turn = np.where(self.mode == BALL, np.maximum(turn, up * up * (3.0 - 2.0 * up)), turn)
         if not self.started:  # the verb's level from the feet that are down now, else none
             down = np.where(inside, lift, np.inf).min(axis=1, keepdims=True)
             self.hover[:] = np.where(np.isfinite(down), down, 0.0)
@@ -171,20 +168,24 @@ class FootPlanter:
         dt = np.broadcast_to(np.asarray(dt, dtype=float), (self.creatures,))[:, None, None]
         self.since += dt
         vel = (free_pos - self.prev_free) / np.where(dt > 0, dt, np.inf)
+        # A ball the verb lifts off its level rolls the foot off it too, whatever the examples' heel-off says.
+        raised = _lowered(lift, self.hover)
+        turn = np.where(self.mode == BALL, np.maximum(turn, _smoothstep((raised - STILL_DOWN) / (LIFTS_OFF - STILL_DOWN))), turn)
         # A rolling foot the verb already lifts off (its ball LIFTS_OFF above its own contact level) is let go
         # before the hold's toe-off, and not held again until the next hold.
         self.spent &= inside
-        self.spent |= (self.mode == BALL) & (turn > 0.0) & (_lowered(lift, self.hover) >= LIFTS_OFF)
+        self.spent |= (self.mode == BALL) & (turn > 0.0) & (raised >= LIFTS_OFF)
         inside = inside & ~self.spent
         opening, closing = inside & (self.mode == FREE), ~inside & (self.mode != FREE)
         self.hover = np.where(closing & np.isfinite(self.ground), self.ground, self.hover)
+        raised = np.where(closing, _lowered(lift, self.hover), raised)  # the let-go feet's new level
         # Where the free rule puts the foot: the verb's, lowered by its hover, on the floor.
         base = free_pos.copy()
-        base[..., 1] = floor.height(free_pos[..., [0, 2]]) + height + _lowered(lift, self.hover)
+        base[..., 1] = floor.height(free_pos[..., [0, 2]]) + height + raised
         free_wanted = self._tilt(base[..., [0, 2]]) @ free_rot
         self.rot_since += dt[..., 0]
         # Rolling off: the ball rises as the verb's does over its contact level, weighted in as the heel lifts.
-        self.rising = np.where(follows, 0.0, np.maximum(_lowered(lift, self.hover), 0.0) * self.turn)
+        self.rising = np.where(follows, 0.0, np.maximum(raised, 0.0) * self.turn)
         shown, wanted = self._shown(base, height, follows, free_rot, free_wanted, self.turn)  # before anything switches
         if closing.any():  # let go: what the foot's orientation had still to turn decays from here
             rel = wanted[closing] @ np.swapaxes(free_wanted[closing], -1, -2)
@@ -219,7 +220,7 @@ class FootPlanter:
         self.ground = np.where(opening, np.inf, self.ground)
         self.ground = np.where(flat, np.minimum(self.ground, lift), self.ground)
         self.turn = turn
-        self.rising = np.where(follows, 0.0, np.maximum(_lowered(lift, self.hover), 0.0) * turn)
+        self.rising = np.where(follows, 0.0, np.maximum(raised, 0.0) * turn)
         self.prev_free[:] = free_pos
         shown, wanted = self._shown(base, height, follows, free_rot, free_wanted, turn)
         return shown, wanted
@@ -336,16 +337,20 @@ def hold_modes(cyclic: bool, g: np.ndarray, opens: np.ndarray, times: np.ndarray
     else:
         into = g - opens
         inside = (into >= 0.0) & ((into < close) | (opens + close >= 1.0 - 1e-9))
-    s = np.clip((into - heel) / np.maximum(close - heel, 1e-12), 0.0, 1.0)
-    return inside, s * s * (3.0 - 2.0 * s)
+    return inside, _smoothstep((into - heel) / np.maximum(close - heel, 1e-12))
 
 
 def _lowered(lift: np.ndarray, hover: np.ndarray) -> np.ndarray:
     """A free foot's height above its contact height: the verb's ``lift``, less its ``hover`` (the verb's own
     contact level at these adverbs) near that level, fading to none ``SWING_CLEARANCE`` above it, so the
     foot lands on the floor and swings as high as the verb swings it."""
-    d = np.clip((lift - hover) / SWING_CLEARANCE, 0.0, 1.0)
-    return lift - hover * (1.0 - d * d * (3.0 - 2.0 * d))
+    return lift - hover * (1.0 - _smoothstep((lift - hover) / SWING_CLEARANCE))
+
+
+def _smoothstep(x: np.ndarray) -> np.ndarray:
+    """``3x² − 2x³`` of ``x`` clipped to ``[0, 1]``: from 0 to 1 with zero slope at both ends."""
+    x = np.clip(x, 0.0, 1.0)
+    return x * x * (3.0 - 2.0 * x)
 
 
 def _turn(held: np.ndarray, free: np.ndarray, w: np.ndarray) -> np.ndarray:
