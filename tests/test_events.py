@@ -129,13 +129,18 @@ def test_keytimes_on_the_cut_s_first_frame_stay_increasing_through_the_spec(tmp_
     np.testing.assert_allclose(fast.keytimes * 30, [0, 0.5, 15, 15.5, 29], rtol=0, atol=1e-9)
 
 
-def test_a_walk_among_runs_is_named_with_its_foot_event_and_frame(tmp_path):
-    runs = {"run": "16_55_run.bvh", "run veer left": "16_48_run_veer_left.bvh"}
-    spec = _spec(tmp_path, {**runs, "walk": "16_15_walk.bvh"})
+def _refused_events(spec, example):
+    """The SpecError refusing ``spec``, checked to name ``example`` and the field ``cut.events``."""
     with pytest.raises(SpecError) as info:
         examples_from_spec(spec)
     err = info.value
-    assert err.example == "walk" and err.field == "cut.events"
+    assert err.example == example and err.field == "cut.events"
+    return err
+
+
+def test_a_walk_among_runs_is_named_with_its_foot_event_and_frame(tmp_path):
+    runs = {"run": "16_55_run.bvh", "run veer left": "16_48_run_veer_left.bvh"}
+    err = _refused_events(_spec(tmp_path, {**runs, "walk": "16_15_walk.bvh"}), "walk")
     # The walk's cut runs from the left strike at 34 to 69; its left foot stays down to frame 54, past the
     # right strike at 50 (16_15's contacts), where the runs lift theirs before the other lands.
     assert "the left toe-off before the right strike at frame 50 is missing" in err.reason
@@ -144,10 +149,7 @@ def test_a_walk_among_runs_is_named_with_its_foot_event_and_frame(tmp_path):
     assert 'cut.events = "strikes"' in err.reason
     # A run among walks: its toe-off is before the strike.
     spec = _spec(tmp_path, {"walk": "16_15_walk.bvh", "veer": "16_13_walk_veer_right.bvh", "run": "16_55_run.bvh"})
-    with pytest.raises(SpecError) as info:
-        examples_from_spec(spec)
-    err = info.value
-    assert err.example == "run" and err.field == "cut.events"
+    err = _refused_events(spec, "run")
     assert "the left toe-off after the right strike at frame 18 is missing" in err.reason
     assert "lifted at frame 15, 3 frames before" in err.reason and "'walk', 'veer'" in err.reason
     # With heel strikes only, walks and runs share a verb's keytimes.
