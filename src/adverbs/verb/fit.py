@@ -122,20 +122,19 @@ def build_verb(
         records.append(ExampleRecord(ex.name, ex.source, ex.part, err, ex.refine, fine_err))
     points = np.stack([np.asarray(ex.point, dtype=float) for ex in examples])
     names = first.keytime_names
+    event_names = names or [f"keytime {i}" for i in range(len(first.keytimes))]
     if isinstance(constraints, str):
         if constraints != "auto":
             raise AdverbsError(f"constraints must be a list or 'auto', got {constraints!r}")
-        constraints = auto_constraints(
-            names or [f"keytime {i}" for i in range(len(first.keytimes))], [ex.clip for ex in examples], cyclic
-        )
+        constraints = auto_constraints(event_names, [ex.clip for ex in examples], cyclic)
         auto = True
     else:
         auto = False
         for c in constraints:
             check_constraint(c, first.clip.skeleton, keytimes.shape[1], cyclic)
     holds, hold_table, hold_warnings = derive_holds(
-        constraints, [ex.clip for ex in examples], keytimes, spacing,
-        names or [f"keytime {i}" for i in range(len(first.keytimes))], cyclic, floor, auto, [ex.name for ex in examples],
+        constraints, [ex.clip for ex in examples], keytimes, spacing, event_names, cyclic, floor, auto,
+        [ex.name for ex in examples],
     )  # fmt: skip
     for w in hold_warnings:
         warnings.warn(f"verb {name!r}: {w}", AdverbsWarning, stacklevel=2)
