@@ -174,8 +174,11 @@ def test_unknown_fields_and_bad_values(tmp_path):
         tmp_path, example("a", WALK, "adverbs = { mood = 0, style = 2 }"), example("b", FAST, "adverbs = { mood = 1 }")
     )
     fails(path, "a", "adverbs.style", "no such adverb")
-    path = spec(tmp_path, example("a", WALK, "adverbs = { mood = 0 }"), head=HEAD)
-    fails(path, None, "examples", "at least two")
+    path = spec(tmp_path, head=HEAD)
+    fails(path, None, "examples", "at least one")
+    bare = 'name = "two-walks"\nnum_cp = 10\ncut = { foot = "left", steps = 2 }\n'
+    path = spec(tmp_path, example("a", WALK), example("b", FAST), head=bare)
+    fails(path, None, "adverbs", "to tell them apart")
     path = tmp_path / "broken.toml"
     path.write_text("name = [unclosed")
     fails(path, None, None, "not valid TOML")

@@ -329,7 +329,7 @@ def _run(args: argparse.Namespace) -> None:
             feet = "the verb has no constraints"
         args.output.parent.mkdir(parents=True, exist_ok=True)
         write_bvh(clip, args.output)
-        values = ", ".join(f"{n}={v:g}" for n, v in zip(verb.adverb_names, p))
+        values = ", ".join(f"{n}={v:g}" for n, v in zip(verb.adverb_names, p)) or "its one example"
         how = "" if args.method == "ours" else f" by {args.method}"
         print(f"wrote {args.output}: {verb.name}{how} at {values}; {clip.num_frames} frames, cycle {k[-1]:.3f} s; {feet}")
     elif args.command == "heldout":

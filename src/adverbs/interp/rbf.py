@@ -229,8 +229,8 @@ class AdverbInterpolator:
         values: np.ndarray | None = None,
     ):
         points = np.asarray(points, dtype=float)
-        if points.ndim != 2 or points.shape[0] < 2:
-            raise AdverbsError(f"need at least two examples as points (E, A), got shape {points.shape}")
+        if points.ndim != 2 or points.shape[0] < 1:
+            raise AdverbsError(f"need examples as points (E, A), got shape {points.shape}")
         e, a = points.shape
         names = list(names) if names is not None else [f"example {i + 1}" for i in range(e)]
         bad = ~np.all(np.isfinite(points), axis=1)
@@ -320,7 +320,7 @@ class AdverbInterpolator:
         """
         q = self._normalized(p)
         shape = q.shape[:-1]
-        q = q.reshape(-1, self.num_adverbs)
+        q = q.reshape(int(np.prod(shape)), self.num_adverbs)
         aug = np.concatenate([q, np.sum(q * q, axis=1, keepdims=True), np.ones((len(q), 1))], axis=1)
         r = aug @ self._distance_form  # (P, E): squared scaled distances
         np.maximum(r, 0.0, out=r)

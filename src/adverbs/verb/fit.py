@@ -69,8 +69,10 @@ def build_verb(
     ``smoothing`` and ``shrinkage`` make the interpolation approximate (a number ≥ 0 or ``"auto"``;
     see :class:`~adverbs.interp.rbf.AdverbInterpolator`; 0, exact, is the default).
     """
-    if len(examples) < 2:
-        raise AdverbsError(f"verb {name!r}: needs at least two examples, got {len(examples)}")
+    if len(examples) < 1:
+        raise AdverbsError(f"verb {name!r}: needs at least one example")
+    if len(examples) > 1 and not adverbs:
+        raise AdverbsError(f"verb {name!r}: {len(examples)} examples need at least one adverb to tell them apart")
     bspline.check_num_cp(num_cp)
     first = examples[0]
     for ex in examples[1:]:

@@ -113,9 +113,9 @@ def load_spec(path: str | Path) -> dict[str, Any]:
     cyclic = raw.get("cyclic", True)
     if not isinstance(cyclic, bool):
         raise SpecError(path, f"cyclic must be true or false, got {cyclic!r}", field="cyclic")
-    adverbs = raw.get("adverbs")
-    if not isinstance(adverbs, list) or not adverbs:
-        raise SpecError(path, "a verb needs at least one [[adverbs]] entry", field="adverbs")
+    adverbs = raw.get("adverbs", [])
+    if not isinstance(adverbs, list):
+        raise SpecError(path, "adverbs must be a list of [[adverbs]] tables", field="adverbs")
     seen: set[str] = set()
     for i, a in enumerate(adverbs):
         if not isinstance(a, dict) or not isinstance(a.get("name"), str):
@@ -136,8 +136,15 @@ def load_spec(path: str | Path) -> dict[str, Any]:
                 field=f"adverbs.{a['name']}.measure",
             )
     examples = raw.get("examples")
-    if not isinstance(examples, list) or len(examples) < 2:
-        raise SpecError(path, "a verb needs at least two [[examples]]", field="examples")
+    if not isinstance(examples, list) or not examples:
+        raise SpecError(path, "a verb needs at least one [[examples]] entry", field="examples")
+    if len(examples) > 1 and not adverbs:
+        raise SpecError(
+            path,
+            f"{len(examples)} examples need at least one [[adverbs]] entry to tell them apart "
+            "(a verb of one example takes none: it plays that example)",
+            field="adverbs",
+        )
     names: set[str] = set()
     for i, ex in enumerate(examples):
         ex_name = ex.get("name", f"#{i + 1}") if isinstance(ex, dict) else f"#{i + 1}"

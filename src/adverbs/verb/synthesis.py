@@ -79,7 +79,7 @@ def synthesize_dofs(
     """DOFs ``(F, D)`` of one creature at ``p`` at every frame, its keytimes ``(N,)`` and the frame rate."""
     p = verb.point(p)
     beyond = verb.outside(p)
-    if beyond.max() > WARN_BEYOND:
+    if beyond.size and beyond.max() > WARN_BEYOND:
         i = int(np.argmax(beyond))
         lo, hi = verb.points[:, i].min(), verb.points[:, i].max()
         warnings.warn(

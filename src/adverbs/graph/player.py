@@ -1,0 +1,575 @@
+"""Creatures moving through a verb graph, one frame at a time (§5): transitions, root bookkeeping, the queue.
+
+:func:`step` advances C creatures by ``dt`` seconds; their progress lives in a :class:`GraphState` the
+caller owns (the graph is shared and never changes). Each creature plays one verb instance — a verb
+and a generic time ``g`` in it — or is in a transition from one instance (A) to another (B):
+
+* **The queue.** Each creature holds the transitions still to take. A command (:func:`command`) puts
+  there the path with the fewest transitions from the verb playing (or, during a transition, the one
+  being entered) to the verb asked for. It never runs dry: when it empties, a transition away from the
+  verb playing is drawn by likelihood from the creature's own seeded generator.
+* **When a transition starts.** When the verb reaches the start of the next transition's region in it
+  (``t_s^A``). A cyclic verb whose next region has already gone by in this cycle first takes its loop
+  into itself; a one-shot verb already past it starts the transition at once, from where it is.
+* **Cosine blend (the paper's).** It lasts the mean of the two regions' lengths in clock time at the
+  current adverbs; ``β`` runs linearly from 0 to 1, each verb's clock runs through its region (so its
+  root velocities are scaled by how much faster or slower that makes it), and with
+  ``α = 0.5 cos(βπ) + 0.5`` every joint rotation is ``slerp(θ^B, θ^A, α)`` — on the rotations
+  themselves, so verbs fitted with different DOF encodings blend correctly — and the root's
+  velocities (sideways, forward, turning) and height are ``α A + (1 − α) B``, then integrated.
+* **Inertial blend, and interruption.** An inertial transition plays B at once; the difference
+  between the pose shown and B's (and between their velocities) becomes an offset that decays as a
+  critically damped spring (half-life ``duration · INERTIAL_HALFLIFE``). A command during an
+  interruptible transition does the same from the current blend: B plays on alone, the offset
+  carries the pose and velocities that were shown, and the new path starts from B.
+* **Cycles.** A cyclic verb instance plays one cycle; its loop into itself is a transition like any
+  other. Where a target region ends at the end of a cyclic verb's cycle, B plays that region as the
+  end of the *previous* cycle (the seam ``d(1) − d(0)`` taken off), so it goes on into its next cycle
+  without a jump.
+* **The root** is integrated from the blended velocities, so every verb instance starts where the
+  creature is, facing where it faces: a walk looping into itself keeps walking on, turns accumulate.
+
+Each frame also gives, for every constrained foot, whether it is held (held in both verbs of a blend;
+released by either, released) and how far it has rolled off, for a planter.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import AdverbsError
+from ..interp import timewarp
+from ..kinematics import quat
+from ..verb._sampling_kernel import GENERIC
+from ..verb.planting import effector_joints, hold_modes
+from ..verb.sampling import SamplingState, run_kernel
+from .structure import CommandRefused, Graph
+
+INERTIAL_HALFLIFE = 0.2  # of a transition's duration: the half-life of an inertial offset's decay
+INTERRUPT_HALFLIFE = 0.1  # seconds: the half-life of the offset an interruption leaves
+MIN_DURATION = 0.1  # seconds: no transition is shorter
+_LN2 = math.log(2.0)
+_LATE = 1e-9  # generic time: a region start this close behind is not yet gone by
+
+
+def blend_weight(beta: np.ndarray) -> np.ndarray:
+    """The paper's blend weight of the verb being left, ``α = 0.5 cos(βπ) + 0.5``, for ``β`` in ``[0, 1]``."""
+    return 0.5 * np.cos(np.clip(beta, 0.0, 1.0) * np.pi) + 0.5
+
+
+def clock_of(g: np.ndarray, keytimes: np.ndarray, generic: np.ndarray) -> np.ndarray:
+    """Clock time of generic time ``g (n,)`` under each row's ``keytimes (n, N)``; ``g < 0`` is the previous cycle."""
+    lap = np.floor(g)
+    return timewarp.clock_time(g - lap, keytimes, generic) + lap * keytimes[:, -1]
+
+
+def generic_of(clock: np.ndarray, keytimes: np.ndarray, generic: np.ndarray) -> np.ndarray:
+    """Generic time of clock time ``clock (n,)``: the inverse of :func:`clock_of`."""
+    end = keytimes[:, -1]
+    lap = np.floor(clock / end)
+    return timewarp.generic_time(clock - lap * end, keytimes, generic) + lap
+
+
+def duration(
+    source_region: tuple[float, float], target_region: tuple[float, float], keys_a: np.ndarray, keys_b: np.ndarray,
+    generic_a: np.ndarray, generic_b: np.ndarray,
+) -> np.ndarray:  # fmt: skip
+    """The paper's transition duration ``(n,)``: the mean of the two regions' lengths in clock time under keytimes ``(n, N)``."""
+    a = np.asarray(source_region, dtype=float).T
+    b = np.asarray(target_region, dtype=float).T
+    length_a = clock_of(np.broadcast_to(a[1], len(keys_a)), keys_a, generic_a) - clock_of(np.broadcast_to(a[0], len(keys_a)), keys_a, generic_a)
+    length_b = clock_of(np.broadcast_to(b[1], len(keys_b)), keys_b, generic_b) - clock_of(np.broadcast_to(b[0], len(keys_b)), keys_b, generic_b)
+    return 0.5 * (length_a + length_b)
+
+
+def _spring(x0: np.ndarray, v0: np.ndarray, t: np.ndarray, halflife: np.ndarray) -> np.ndarray:
+    """A critically damped offset ``x0`` with velocity ``v0``, ``t`` seconds on."""
+    y = 2.0 * _LN2 / halflife
+    return (x0 + (v0 + y * x0) * t) * np.exp(-y * t)
+
+
+@dataclass(eq=False)
+class GraphState:
+    """Where C creatures are in a graph; owned by the caller. Make one with :func:`new_state`.
+
+    Per creature: ``points (C, A)`` the graph's adverbs; ``verb``, ``g`` the verb instance playing (A);
+    ``into``, ``g_into`` the one being entered (B, −1 when none); ``active`` the transition under way
+    (−1: none), its ``beta``, ``length`` (seconds) and ``regions (C, 4)`` (A's and B's, generic time, as it
+    started); ``root (C, 3)`` = (x, z, heading); ``queue`` the transitions to come; ``goal`` the verb last
+    asked for until it plays (−1: none) and when it was asked; the decaying offsets of inertial blends
+    and interruptions; the last two frames shown (for the velocities an interruption carries on).
+    """
+
+    graph: Graph
+    points: np.ndarray
+    verb: np.ndarray
+    g: np.ndarray
+    into: np.ndarray
+    g_into: np.ndarray
+    active: np.ndarray
+    beta: np.ndarray
+    length: np.ndarray
+    regions: np.ndarray
+    root: np.ndarray
+    time: np.ndarray
+    queue: list[list[int]]
+    rngs: list[np.random.Generator]
+    goal: np.ndarray
+    asked: np.ndarray
+    rebase: np.ndarray
+    offset_rot: np.ndarray
+    offset_rot_vel: np.ndarray
+    offset_trans: np.ndarray
+    offset_trans_vel: np.ndarray
+    offset_root: np.ndarray
+    offset_since: np.ndarray
+    offset_halflife: np.ndarray
+    shown: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+    shown_before: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+    latencies: list[tuple[int, str, float]] = field(default_factory=list)
+    caches: dict = field(default_factory=dict)
+
+    @property
+    def creatures(self) -> int:
+        return len(self.verb)
+
+    def playing(self, c: int) -> str:
+        """What creature ``c`` is doing, in words."""
+        names = self.graph.verb_names
+        if self.active[c] >= 0:
+            return f"{names[self.verb[c]]} → {names[self.into[c]]} ({self.beta[c]:.0%})"
+        return f"{names[self.verb[c]]} at {self.g[c]:.2f}"
+
+
+def new_state(
+    graph: Graph, creatures: int = 1, seed: int = 0, start: str | int | None = None, points: np.ndarray | None = None,
+    root: np.ndarray | None = None,
+) -> GraphState:  # fmt: skip
+    """C creatures at the start of ``start`` (default the graph's), adverbs ``points (C, A)`` (default the graph's
+    defaults), roots ``(C, 3)``; each draws its default transitions from its own generator (``seed`` spawns them)."""
+    if isinstance(creatures, bool) or not isinstance(creatures, int | np.integer) or creatures < 1:
+        raise AdverbsError(f"creatures must be a whole number ≥ 1, got {creatures!r}")
+    c = int(creatures)
+    v = graph.start if start is None else graph.verb_index(start)
+    a = len(graph.adverb_names)
+    p = np.tile(graph.defaults, (c, 1)) if points is None else np.array(np.broadcast_to(np.asarray(points, dtype=float), (c, a)))
+    if not np.all(np.isfinite(p)):
+        raise AdverbsError("adverb values must be finite numbers (got NaN or infinity)")
+    r = np.zeros((c, 3)) if root is None else np.array(np.broadcast_to(np.asarray(root, dtype=float), (c, 3)))
+    j = graph.skeleton.num_joints
+    state = GraphState(
+        graph, p, np.full(c, v), np.zeros(c), np.full(c, -1), np.zeros(c), np.full(c, -1), np.zeros(c), np.zeros(c),
+        np.zeros((c, 4)), r, np.zeros(c), [[] for _ in range(c)],
+        [np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(c)], np.full(c, -1), np.zeros(c),
+        np.zeros(c, dtype=bool), np.zeros((c, j, 3)), np.zeros((c, j, 3)), np.zeros((c, j, 3)), np.zeros((c, j, 3)),
+        np.zeros((c, 3)), np.full(c, 1e9), np.full(c, INTERRUPT_HALFLIFE),
+    )  # fmt: skip
+    for k in range(c):
+        _settle_queue(state, k)
+    return state
+
+
+# ----- the queue ----------------------------------------------------------------------------------
+
+
+def _settle_queue(state: GraphState, c: int) -> None:
+    """Make creature ``c``'s queue playable from where it is: never empty, and a cyclic verb whose next
+    region has gone by in this cycle loops into itself first."""
+    graph = state.graph
+    q = state.queue[c]
+    if not q:
+        q.append(graph.draw(int(state.verb[c]), state.rngs[c]))
+    v = int(state.verb[c])
+    first = graph.transitions[q[0]]
+    loop = graph.loop(v)
+    if graph.verbs[v].cyclic and first.source_region[0] < state.g[c] - _LATE and loop is not None and q[0] != loop:
+        q.insert(0, loop)
+
+
+def command(state: GraphState, creature: int, verb: str | int) -> list[int]:
+    """Ask creature ``creature`` to perform ``verb``: queue the path with the fewest transitions to it.
+
+    Returns the transitions queued. During an interruptible transition the creature carries on from the
+    pose it shows (see the module); otherwise the path starts from the verb being entered once it plays.
+    An unknown or unreachable verb raises :class:`CommandRefused` and changes nothing.
+    """
+    graph = state.graph
+    c = int(creature)
+    if not 0 <= c < state.creatures:
+        raise CommandRefused(f"no creature {c}: there are {state.creatures}")
+    target = graph.verb_index(verb)
+    now = int(state.into[c]) if state.active[c] >= 0 else int(state.verb[c])
+    path = graph.path(now, target)  # raises before anything changes
+    state.goal[c] = target
+    state.asked[c] = state.time[c]
+    if state.active[c] >= 0 and graph.transitions[state.active[c]].interruptible:
+        _interrupt(state, c)
+    state.queue[c] = list(path)
+    if state.active[c] < 0:
+        _settle_queue(state, c)
+        if target == state.verb[c]:
+            _arrived(state, c)
+    return list(state.queue[c])
+
+
+def _interrupt(state: GraphState, c: int) -> None:
+    """Drop the verb being left: the one being entered plays on alone from the pose now shown."""
+    state.verb[c], state.g[c] = state.into[c], state.g_into[c]
+    state.active[c], state.into[c] = -1, -1
+    state.rebase[c] = True
+    state.offset_halflife[c] = INTERRUPT_HALFLIFE
+    if state.g[c] < 0.0:  # B was playing the end of its previous cycle: it is that cycle's end now
+        state.g[c] += 1.0
+
+
+def _arrived(state: GraphState, c: int) -> None:
+    if state.goal[c] >= 0 and state.verb[c] == state.goal[c] and state.active[c] < 0:
+        state.latencies.append((c, state.graph.verb_names[state.goal[c]], float(state.time[c] - state.asked[c])))
+        state.goal[c] = -1
+
+
+# ----- one frame ------------------------------------------------------------------------------------
+
+
+@dataclass
+class Frame:
+    """One frame of C creatures: local ``rotations (C, J, 4)``, ``translations (C, J, 3)``, the ``root (C, 3)``,
+    the root's velocities ``(C, 3)`` (sideways, forward m/s, turn rad/s), and per foot of the graph's feet
+    ``held (C, L)`` and ``roll (C, L)`` (see :func:`hold_phases`)."""
+
+    rotations: np.ndarray
+    translations: np.ndarray
+    root: np.ndarray
+    velocity: np.ndarray
+    held: np.ndarray
+    roll: np.ndarray
+
+
+def feet(graph: Graph) -> list[int]:
+    """The effector joints any verb of the graph holds, in the order the first such verb lists them."""
+    out: list[int] = []
+    for v in graph.verbs:
+        out += [j for j in effector_joints(v) if j not in out]
+    return out
+
+
+def _sampling(state: GraphState, v: int, slot: int) -> SamplingState:
+    """Verb ``v``'s cached weights and keytimes for every creature, in slot 0 (A) or 1 (B), up to date."""
+    graph = state.graph
+    verb = graph.verbs[v]
+    key = (v, slot)
+    s = state.caches.get(key)
+    if s is None:
+        s = state.caches[key] = SamplingState.new(verb, state.creatures)
+    s.update(verb, np.ascontiguousarray(state.points[:, graph.columns[v]]))
+    return s
+
+
+def _clock(state: GraphState, verbs: np.ndarray, g: np.ndarray, slot: int, rows: np.ndarray) -> np.ndarray:
+    """Clock times ``(n,)`` of generic times ``g (n,)`` of the creatures ``rows`` in their verbs ``verbs[rows]`` (slot A or B)."""
+    out = np.zeros(len(rows))
+    for v in np.unique(verbs[rows]):
+        sel = verbs[rows] == v
+        verb = state.graph.verbs[int(v)]
+        keys = _sampling(state, int(v), slot).keytimes[rows[sel]]
+        out[sel] = clock_of(g[sel], keys, verb.generic_keytimes)
+    return out
+
+
+def _generic(state: GraphState, verbs: np.ndarray, clock: np.ndarray, slot: int, rows: np.ndarray) -> np.ndarray:
+    """Generic times ``(n,)`` of clock times ``clock (n,)``: the inverse of :func:`_clock`."""
+    out = np.zeros(len(rows))
+    for v in np.unique(verbs[rows]):
+        sel = verbs[rows] == v
+        verb = state.graph.verbs[int(v)]
+        keys = _sampling(state, int(v), slot).keytimes[rows[sel]]
+        out[sel] = generic_of(clock[sel], keys, verb.generic_keytimes)
+    return out
+
+
+def _start(state: GraphState, c: int, late: float) -> None:
+    """Start creature ``c``'s next transition; ``late``: seconds of this frame left after its region began."""
+    graph = state.graph
+    k = state.queue[c].pop(0)
+    t = graph.transitions[k]
+    a, b = graph.verbs[t.source], graph.verbs[t.target]
+    (sa, ea), (sb, eb) = t.source_region, t.target_region
+    g = float(state.g[c])
+    if g > sa + _LATE:  # the region has begun already (a one-shot verb past it, or a loop begun late)
+        if g < ea:
+            sb += (g - sa) / (ea - sa) * (eb - sb)
+            sa = g
+        else:
+            sa = ea = g
+    if b.cyclic and eb >= 1.0:  # B plays the end of its previous cycle
+        sb, eb = sb - 1.0, eb - 1.0
+    row = np.array([c])
+    keys_a = _sampling(state, t.source, 0).keytimes[row]
+    keys_b = _sampling(state, t.target, 1).keytimes[row]
+    length = float(duration((sa, ea), (sb, eb), keys_a, keys_b, a.generic_keytimes, b.generic_keytimes)[0])
+    state.active[c], state.into[c] = k, t.target
+    state.regions[c] = (sa, ea, sb, eb)
+    state.length[c] = max(length, MIN_DURATION)
+    state.beta[c] = min(late / state.length[c], 1.0)
+    state.g_into[c] = sb
+    if t.blend == "inertial":  # B at once, the pose shown decaying onto it
+        state.rebase[c] = True
+        state.offset_halflife[c] = INERTIAL_HALFLIFE * state.length[c]
+
+
+def _finish(state: GraphState, c: int) -> None:
+    """End creature ``c``'s transition: B plays on alone."""
+    state.verb[c], state.g[c] = state.into[c], state.g_into[c]
+    if state.g[c] < 0.0 and abs(state.g[c]) < 1e-9:
+        state.g[c] = 0.0
+    state.active[c], state.into[c] = -1, -1
+    _settle_queue(state, c)
+    _arrived(state, c)
+
+
+def _advance(state: GraphState, dt: float) -> None:
+    """Move every creature's times on by ``dt``: verbs playing alone by their own clocks, transitions by ``β``."""
+    graph = state.graph
+    c_all = np.arange(state.creatures)
+    moving = c_all[state.active >= 0]
+    state.beta[moving] += dt / state.length[moving]
+    alone = c_all[state.active < 0]
+    if len(alone):
+        clock = _clock(state, state.verb, state.g[alone], 0, alone) + dt
+        g_new = _generic(state, state.verb, clock, 0, alone)
+        nxt = np.array([graph.transitions[state.queue[c][0]].source_region[0] for c in alone])
+        begins = g_new >= nxt - _LATE
+        one_shot = np.array([not graph.verbs[v].cyclic for v in state.verb[alone]])
+        g_new = np.where(one_shot, np.minimum(g_new, 1.0), g_new)
+        for i in np.flatnonzero(begins):
+            c = int(alone[i])
+            # How much of this frame is left after the region's start (none if it had gone by).
+            at = float(_clock(state, state.verb, np.array([max(nxt[i], state.g[c])]), 0, np.array([c]))[0])
+            state.g[c] = max(nxt[i], min(state.g[c], 1.0))
+            _start(state, c, max(float(clock[i]) - at, 0.0))
+        rest = ~begins
+        state.g[alone[rest]] = g_new[rest]
+    for c in moving:
+        if state.beta[c] >= 1.0:
+            over = (state.beta[c] - 1.0) * state.length[c]
+            state.beta[c] = 1.0
+            _place(state, np.array([c]))
+            _finish(state, int(c))
+            if over > 0:  # the rest of the frame, B alone
+                row = np.array([c])
+                clock = _clock(state, state.verb, state.g[row], 0, row) + over
+                state.g[c] = _generic(state, state.verb, clock, 0, row)[0]
+    _place(state, c_all[state.active >= 0])
+
+
+def _place(state: GraphState, rows: np.ndarray) -> None:
+    """Put A and B of the creatures ``rows`` in transition where ``β`` says: each clock through its region."""
+    if len(rows) == 0:
+        return
+    inertial = np.array([state.graph.transitions[k].blend == "inertial" for k in state.active[rows]])
+    sa, ea, sb, eb = state.regions[rows].T
+    beta = state.beta[rows]
+    ca0, ca1 = _clock(state, state.verb, sa, 0, rows), _clock(state, state.verb, ea, 0, rows)
+    cb0, cb1 = _clock(state, state.into, sb, 1, rows), _clock(state, state.into, eb, 1, rows)
+    state.g[rows] = _generic(state, state.verb, ca0 + beta * (ca1 - ca0), 0, rows)
+    # B runs through its region, or (inertial) by its own clock from the region's start.
+    cb = np.where(inertial, cb0 + beta * state.length[rows], cb0 + beta * (cb1 - cb0))
+    state.g_into[rows] = _generic(state, state.into, cb, 1, rows)
+
+
+def _rates(state: GraphState, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """How fast A's and B's clocks run in the transitions of ``rows`` (seconds of verb per second)."""
+    sa, ea, sb, eb = state.regions[rows].T
+    ca = _clock(state, state.verb, ea, 0, rows) - _clock(state, state.verb, sa, 0, rows)
+    cb = _clock(state, state.into, eb, 1, rows) - _clock(state, state.into, sb, 1, rows)
+    inertial = np.array([state.graph.transitions[k].blend == "inertial" for k in state.active[rows]])
+    return ca / state.length[rows], np.where(inertial, 1.0, cb / state.length[rows])
+
+
+def _dofs(state: GraphState, verbs: np.ndarray, g: np.ndarray, slot: int, rows: np.ndarray) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+    """DOFs of each verb at generic times ``g (C,)`` for the creatures ``rows``: verb → (its rows, DOFs (n, D))."""
+    out = {}
+    for v in np.unique(verbs[rows]):
+        sel = rows[verbs[rows] == v]
+        verb = state.graph.verbs[int(v)]
+        s = _sampling(state, int(v), slot)
+        lap = np.floor(g[sel])
+        local = np.clip(g[sel] - lap, 0.0, 1.0)
+        d = run_kernel(verb.segments, s.weights, s.keytimes, verb.generic_keytimes, s.seam, sel, local, GENERIC)
+        if verb.cyclic:
+            d += lap[:, None] * s.seam[sel]
+        out[int(v)] = (sel, d)
+    return out
+
+
+@dataclass
+class _Base:
+    """What the verbs give every creature at one time, before offsets: DOFs by slot and verb, the blend weight
+    ``alpha (C,)`` of A (1 alone, 0 inertial), and the blended root velocities ``(C, 3)``."""
+
+    a: dict
+    b: dict
+    alpha: np.ndarray
+    velocity: np.ndarray
+
+
+def _sample(state: GraphState, g_a: np.ndarray, g_b: np.ndarray) -> _Base:
+    c_all = np.arange(state.creatures)
+    moving = c_all[state.active >= 0]
+    inertial = np.zeros(state.creatures, dtype=bool)
+    inertial[moving] = [state.graph.transitions[k].blend == "inertial" for k in state.active[moving]]
+    rate_a, rate_b = np.ones(state.creatures), np.ones(state.creatures)
+    if len(moving):
+        rate_a[moving], rate_b[moving] = _rates(state, moving)
+    alpha = np.where(state.active < 0, 1.0, np.where(inertial, 0.0, blend_weight(state.beta)))
+    a = _dofs(state, state.verb, g_a, 0, c_all[~inertial])
+    b = _dofs(state, state.into, g_b, 1, moving)
+    vel = np.zeros((state.creatures, 3))
+    for sel, d in a.values():
+        vel[sel] += (alpha[sel] * rate_a[sel])[:, None] * d[:, :3]
+    for sel, d in b.values():
+        vel[sel] += ((1.0 - alpha[sel]) * rate_b[sel])[:, None] * d[:, :3]
+    return _Base(a, b, alpha, vel)
+
+
+def _decode(state: GraphState, base: _Base, root: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Local rotations and translations of every creature at ``root (C, 3)``: A and B decoded, then blended by
+    ``alpha`` on the rotations (slerp) and translations (linearly)."""
+    j = state.graph.skeleton.num_joints
+    n = state.creatures
+
+    def decoded(slot: dict) -> tuple[np.ndarray, np.ndarray]:
+        rot, trans = np.tile(quat.identity((j,)), (n, 1, 1)), np.zeros((n, j, 3))
+        for v, (sel, d) in slot.items():
+            rot[sel], trans[sel] = state.graph.verbs[v].encoding.decode_pose(d, root[sel])
+        return rot, trans
+
+    rot, trans = decoded(base.a)
+    if base.b:
+        rot_b, trans_b = decoded(base.b)
+        r = np.flatnonzero(state.active >= 0)
+        w = base.alpha[r]
+        rot[r] = quat.slerp(rot_b[r], rot[r], np.broadcast_to(w[:, None], rot[r].shape[:-1]))
+        trans[r] = w[:, None, None] * trans[r] + (1.0 - w[:, None, None]) * trans_b[r]
+    return rot, trans
+
+
+def _integrate(root: np.ndarray, vel: np.ndarray, dt: float) -> np.ndarray:
+    """Roots ``(C, 3)`` moved on by ``dt`` at velocities ``(C, 3)``: the heading turns by ``turn · dt`` and the body
+    travels in the frame of the heading halfway through the step (as :meth:`DofEncoding.advance_root` does)."""
+    h1 = root[:, 2] + vel[:, 2] * dt
+    step = quat.rotate(quat.about_y(0.5 * (root[:, 2] + h1)), np.stack([vel[:, 0], np.zeros(len(vel)), vel[:, 1]], axis=1)) * dt
+    return np.stack([root[:, 0] + step[:, 0], root[:, 1] + step[:, 2], h1], axis=1)
+
+
+def _back(state: GraphState, rows: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Generic times of A and B ``dt`` seconds ago by their clocks, for the creatures ``rows`` (others: now)."""
+    g_a, g_b = state.g.copy(), state.g_into.copy()
+    rate_a, rate_b = np.ones(state.creatures), np.ones(state.creatures)
+    t = rows[state.active[rows] >= 0]
+    if len(t):
+        rate_a[t], rate_b[t] = _rates(state, t)
+        g_b[t] = _generic(state, state.into, _clock(state, state.into, state.g_into[t], 1, t) - dt * rate_b[t], 1, t)
+    g_a[rows] = _generic(state, state.verb, _clock(state, state.verb, state.g[rows], 0, rows) - dt * rate_a[rows], 0, rows)
+    return g_a, g_b
+
+
+def _relative(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Rotation vectors of ``a b⁻¹`` (the short way round)."""
+    q = quat.mul(a, quat.inv(b))
+    return quat.log(np.where(q[..., 3:] < 0.0, -q, q))
+
+
+def step(state: GraphState, dt: float) -> Frame:
+    """Advance every creature by ``dt`` seconds; the frame they show."""
+    dt = float(dt)
+    if not (math.isfinite(dt) and dt > 0):
+        raise AdverbsError(f"dt must be a positive number of seconds, got {dt}")
+    state.time += dt
+    _advance(state, dt)
+    base = _sample(state, state.g, state.g_into)
+    rows = np.flatnonzero(state.rebase)
+    state.rebase[:] = False
+    before = None
+    if len(rows) and state.shown is not None:
+        # Carry on from what was shown: the offset is (shown − verbs) a frame ago, its velocity the difference
+        # of their velocities since.
+        before = _sample(state, *_back(state, rows, dt))
+        state.offset_root[rows] = state.shown[2][rows] - before.velocity[rows]
+    vel = base.velocity.copy()
+    state.offset_since += dt
+    if before is not None:
+        state.offset_since[rows] = dt  # the offset was taken a frame ago, at what was shown then
+    live = np.flatnonzero(state.offset_since < 12.0 * state.offset_halflife)
+    t, h = state.offset_since[live, None], state.offset_halflife[live, None]
+    vel[live] += _spring(state.offset_root[live], 0.0, t, h)
+    new_root = _integrate(state.root, vel, dt)
+    rot, trans = _decode(state, base, new_root)
+    if before is not None:
+        rot0, trans0 = _decode(state, before, state.root)
+        s_rot, s_trans, _ = state.shown
+        state.offset_rot[rows] = _relative(s_rot[rows], rot0[rows])
+        state.offset_trans[rows] = s_trans[rows] - trans0[rows]
+        state.offset_rot_vel[rows] = 0.0
+        state.offset_trans_vel[rows] = 0.0
+        if state.shown_before is not None:
+            b_rot, b_trans, _ = state.shown_before
+            state.offset_rot_vel[rows] = (_relative(s_rot[rows], b_rot[rows]) - _relative(rot[rows], rot0[rows])) / dt
+            state.offset_trans_vel[rows] = ((s_trans[rows] - b_trans[rows]) - (trans[rows] - trans0[rows])) / dt
+        # The root's own travel is the root's: only heights and the pose carry an offset.
+        body = state.graph.verbs[0].encoding.body_root
+        state.offset_trans[rows, body, 0] = state.offset_trans[rows, body, 2] = 0.0
+        state.offset_trans_vel[rows, body, 0] = state.offset_trans_vel[rows, body, 2] = 0.0
+    if len(live):
+        t, h = t[:, :, None], h[:, :, None]
+        rot[live] = quat.mul(quat.exp(_spring(state.offset_rot[live], state.offset_rot_vel[live], t, h)), rot[live])
+        trans[live] += _spring(state.offset_trans[live], state.offset_trans_vel[live], t, h)
+    state.root = new_root
+    state.shown_before, state.shown = state.shown, (rot, trans, vel)
+    held, roll = hold_phases(state)
+    return Frame(rot, trans, new_root.copy(), vel, held, roll)
+
+
+def hold_phases(state: GraphState) -> tuple[np.ndarray, np.ndarray]:
+    """For every creature and every foot of the graph ``(C, L)``: whether it is held, and how far it has rolled off.
+
+    A verb instance holds a foot as its own hold says at its generic time (the examples' contact times at its
+    adverbs); a verb without a hold on that foot never holds it. In a cosine blend a foot is held only where
+    both verbs hold it (released by either, released) and has rolled as far as the further of the two.
+    """
+    graph = state.graph
+    tips = feet(graph)
+    c = state.creatures
+    held = np.zeros((c, len(tips)), dtype=bool)
+    roll = np.zeros((c, len(tips)))
+    c_all = np.arange(c)
+    inertial = np.zeros(c, dtype=bool)
+    moving = c_all[state.active >= 0]
+    inertial[moving] = [graph.transitions[k].blend == "inertial" for k in state.active[moving]]
+
+    def phases(verbs: np.ndarray, g: np.ndarray, slot: int, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        h = np.zeros((c, len(tips)), dtype=bool)
+        r = np.zeros((c, len(tips)))
+        for v in np.unique(verbs[rows]):
+            verb = graph.verbs[int(v)]
+            if not verb.holds:
+                continue
+            sel = rows[verbs[rows] == v]
+            times = verb.hold_times(_sampling(state, int(v), slot).weights[sel])
+            opens = np.array([x.open for x in verb.holds])
+            gg = g[sel] - np.floor(g[sel]) if verb.cyclic else np.clip(g[sel], 0.0, 1.0)
+            inside, turn = hold_modes(verb.cyclic, gg[:, None], opens, times)
+            cols = [tips.index(j) for j in effector_joints(verb)]
+            h[np.ix_(sel, cols)] = inside
+            r[np.ix_(sel, cols)] = turn
+        return h, r
+
+    ha, ra = phases(state.verb, state.g, 0, c_all[~inertial])
+    hb, rb = phases(state.into, state.g_into, 1, moving)
+    alone = state.active < 0
+    held = np.where(alone[:, None], ha, np.where(inertial[:, None], hb, ha & hb))
+    roll = np.where(alone[:, None], ra, np.where(inertial[:, None], rb, np.maximum(ra, rb)))
+    return held, roll
