@@ -193,7 +193,9 @@ def test_unknown_fields_and_bad_values(tmp_path):
 
 def test_the_shipped_specs_parse_and_name_shipped_files():
     paths = sorted(SPECS.glob("*.toml"))
-    assert {p.stem for p in paths} == {"cmu_walk", "cmu_run", "bandai_styled_walk", "bandai_run", "bandai_reach"}
+    assert {p.stem for p in paths} == {
+        "cmu_walk", "cmu_run", "bandai_styled_walk", "bandai_run", "bandai_reach", "bandai_idle", "bandai_bow", "bandai_bye", "bandai_guide",
+    }  # fmt: skip
     for path in paths:
         spec = load_spec(path)
         assert all((path.parent / ex["file"]).exists() for ex in spec["examples"]), path

@@ -43,8 +43,10 @@ import numpy as np
 from ..errors import AdverbsError
 from ..interp import timewarp
 from ..kinematics import quat
-from ..verb._sampling_kernel import GENERIC
-from ..verb.planting import effector_joints, hold_modes
+from ..kinematics.fk import forward_kinematics
+from ..verb._sampling_kernel import GENERIC, VELOCITIES
+from ..kinematics.floor import Floor
+from ..verb.planting import FootPlanter, effector_joints, hold_modes
 from ..verb.sampling import SamplingState, run_kernel
 from .structure import CommandRefused, Graph
 
@@ -129,6 +131,7 @@ class GraphState:
     offset_halflife: np.ndarray
     shown: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
     shown_before: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+    held_before: np.ndarray | None = None
     latencies: list[tuple[int, str, float]] = field(default_factory=list)
     caches: dict = field(default_factory=dict)
 
@@ -264,7 +267,7 @@ def _sampling(state: GraphState, v: int, slot: int) -> SamplingState:
     s = state.caches.get(key)
     if s is None:
         s = state.caches[key] = SamplingState.new(verb, state.creatures)
-    s.update(verb, np.ascontiguousarray(state.points[:, graph.columns[v]]))
+    s.update(verb, graph.verb_points(v, state.points))
     return s
 
 
@@ -399,8 +402,8 @@ def _dofs(state: GraphState, verbs: np.ndarray, g: np.ndarray, slot: int, rows: 
         lap = np.floor(g[sel])
         local = np.clip(g[sel] - lap, 0.0, 1.0)
         d = run_kernel(verb.segments, s.weights, s.keytimes, verb.generic_keytimes, s.seam, sel, local, GENERIC)
-        if verb.cyclic:
-            d += lap[:, None] * s.seam[sel]
+        if verb.cyclic:  # the pose of another cycle: shifted by the seam (the velocities: see _sample)
+            d[:, VELOCITIES:] += lap[:, None] * s.seam[sel, VELOCITIES:]
         out[int(v)] = (sel, d)
     return out
 
@@ -430,9 +433,21 @@ def _sample(state: GraphState, g_a: np.ndarray, g_b: np.ndarray) -> _Base:
     vel = np.zeros((state.creatures, 3))
     for sel, d in a.values():
         vel[sel] += (alpha[sel] * rate_a[sel])[:, None] * d[:, :3]
-    for sel, d in b.values():
+    for v, (sel, d) in b.items():
         vel[sel] += ((1.0 - alpha[sel]) * rate_b[sel])[:, None] * d[:, :3]
+        # B playing its previous cycle: its velocities' seam is taken off by a weight that rises from 0 to 1 and
+        # integrates to zero, so the blend ends on B's next cycle without adding distance or turn (the sampling
+        # kernel's seam fade, run backwards).
+        prev = sel[g_b[sel] < 0.0]
+        if len(prev):
+            u = _seam_rise(state.beta[prev])
+            vel[prev] -= (u * rate_b[prev])[:, None] * _sampling(state, v, 1).seam[prev, :VELOCITIES]
     return _Base(a, b, alpha, vel)
+
+
+def _seam_rise(beta: np.ndarray) -> np.ndarray:
+    """``1 − (1 − β)²(1 + 2β) − 3β(1 − β)``: 0 at ``β = 0``, 1 at ``β = 1``, zero integral over ``[0, 1]``."""
+    return 1.0 - (1.0 - beta) ** 2 * (1.0 + 2.0 * beta) - 3.0 * beta * (1.0 - beta)
 
 
 def _decode(state: GraphState, base: _Base, root: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -527,10 +542,63 @@ def step(state: GraphState, dt: float) -> Frame:
         t, h = t[:, :, None], h[:, :, None]
         rot[live] = quat.mul(quat.exp(_spring(state.offset_rot[live], state.offset_rot_vel[live], t, h)), rot[live])
         trans[live] += _spring(state.offset_trans[live], state.offset_trans_vel[live], t, h)
+    held, roll = hold_phases(state)
+    new_root = _keep_feet(state, rot, trans, new_root, held, roll)
+    vel = _velocity(state.root, new_root, dt)
     state.root = new_root
     state.shown_before, state.shown = state.shown, (rot, trans, vel)
-    held, roll = hold_phases(state)
+    state.held_before = held
     return Frame(rot, trans, new_root.copy(), vel, held, roll)
+
+
+def _velocity(old: np.ndarray, new: np.ndarray, dt: float) -> np.ndarray:
+    """The root velocities ``(C, 3)`` (sideways, forward, turn) that take roots ``old`` to ``new`` in ``dt``."""
+    turn = (new[:, 2] - old[:, 2]) / dt
+    d = np.stack([new[:, 0] - old[:, 0], np.zeros(len(new)), new[:, 1] - old[:, 1]], axis=1) / dt
+    v = quat.rotate(quat.about_y(-0.5 * (old[:, 2] + new[:, 2])), d)
+    return np.stack([v[:, 0], v[:, 2], turn], axis=1)
+
+
+def _keep_feet(state: GraphState, rot: np.ndarray, trans: np.ndarray, root: np.ndarray, held: np.ndarray, roll: np.ndarray) -> np.ndarray:
+    """Roots ``(C, 3)`` of creatures in a cosine blend moved so the feet both verbs hold stay where they were shown.
+
+    Blending two verbs whose stance feet sit at different places under the body slides a held foot by
+    ``α'(A − B)``, however well each verb alone keeps it still; the body is carried instead, by the mean slip of
+    the held feet, each weighted by how flat it still is (``1 − roll``), so the weight fades as a foot rolls off.
+    ``trans`` (the body root's) is moved with it, in place. A verb's loop into itself blends two instances of one
+    verb, which keep their feet alike: its root is the verb's own, so it turns and travels as the verb does.
+    """
+    rows = np.flatnonzero(state.active >= 0)
+    if not len(rows) or state.shown is None or state.held_before is None:
+        return root
+    ts = state.graph.transitions
+    rows = rows[[ts[k].blend == "cosine" and ts[k].source != ts[k].target for k in state.active[rows]]]
+    w = (held & state.held_before)[rows] * (1.0 - roll[rows])
+    rows, w = rows[w.sum(axis=1) > 0], w[w.sum(axis=1) > 0]
+    if not len(rows):
+        return root
+    graph = state.graph
+    tips = feet(graph)
+    now = forward_kinematics(graph.skeleton.parents, rot[rows], trans[rows])[0][:, tips]
+    was = forward_kinematics(graph.skeleton.parents, state.shown[0][rows], state.shown[1][rows])[0][:, tips]
+    slip = np.einsum("cl,clk->ck", w, was - now) / w.sum(axis=1, keepdims=True)
+    slip[:, 1] = 0.0
+    root = root.copy()
+    root[rows, 0] += slip[:, 0]
+    root[rows, 1] += slip[:, 2]
+    body = graph.verbs[0].encoding.body_root
+    trans[rows, body] += quat.rotate(_inverse_above(graph), slip)
+    return root
+
+
+def _inverse_above(graph: Graph) -> np.ndarray:
+    """The inverse of the rest rotation of the joint above the body root (identity when it has none)."""
+    skel = graph.skeleton
+    above = skel.ancestors(graph.verbs[0].encoding.body_root)[1:]
+    if not above:
+        return quat.identity()
+    _, arot = forward_kinematics(skel.parents, quat.identity((skel.num_joints,)), graph.verbs[0].encoding.base_translations)
+    return quat.inv(arot[above[0]])
 
 
 def hold_phases(state: GraphState) -> tuple[np.ndarray, np.ndarray]:
@@ -573,3 +641,26 @@ def hold_phases(state: GraphState) -> tuple[np.ndarray, np.ndarray]:
     held = np.where(alone[:, None], ha, np.where(inertial[:, None], hb, ha & hb))
     roll = np.where(alone[:, None], ra, np.where(inertial[:, None], rb, np.maximum(ra, rb)))
     return held, roll
+
+
+def planter(graph: Graph, creatures: int = 1, floor: Floor | None = None) -> FootPlanter:
+    """A :class:`~adverbs.verb.planting.FootPlanter` for ``creatures`` creatures of ``graph``, fed each frame's
+    :attr:`Frame.held` and :attr:`Frame.roll` (see :func:`plant`). Its legs and contact heights are those of the
+    first verb that holds feet; every verb that holds any must hold the same ones."""
+    holding = [v for v in graph.verbs if v.holds]
+    if not holding:
+        raise AdverbsError(f"graph {graph.name!r}: no verb holds a foot: nothing to plant")
+    tips = effector_joints(holding[0])
+    for v in holding[1:]:
+        if effector_joints(v) != tips:
+            names = graph.skeleton.names
+            raise AdverbsError(
+                f"graph {graph.name!r}: verb {v.name!r} holds {[names[j] for j in effector_joints(v)]}, verb "
+                f"{holding[0].name!r} holds {[names[j] for j in tips]}: a graph's verbs must plant the same feet"
+            )
+    return FootPlanter(holding[0], creatures, floor)
+
+
+def plant(feet_planter: FootPlanter, frame: Frame, dt: float):
+    """The frame's feet planted: rotations ``(C, J, 4)``, translations ``(C, J, 3)`` and the IK result."""
+    return feet_planter.step(frame.rotations, frame.translations, None, dt, (frame.held, frame.roll))

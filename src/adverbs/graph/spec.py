@@ -10,6 +10,7 @@ name = "walk"                         # optional: the verb's own name
 spec = "bandai_styled_walk.toml"      # a verb spec (built when the graph is loaded), or
 # verb = "../out/walk.verb"           # a built verb file
 adverbs = { energy = "mood" }        # optional: read the graph adverb "mood" for the verb's "energy"
+clamp = false                         # true: the verb plays at its adverbs kept inside its examples' ranges
 loop_likelihood = 3                   # cyclic verbs: likelihood of the loop into itself the graph adds
 
 [[transitions]]
@@ -44,7 +45,7 @@ from ..verb.store import load_verb
 from .structure import BLENDS, Graph, Transition, check_transition
 
 _TOP = {"name", "description", "start", "adverbs", "verbs", "transitions"}
-_VERB = {"name", "spec", "verb", "adverbs", "loop_likelihood", "description"}
+_VERB = {"name", "spec", "verb", "adverbs", "clamp", "loop_likelihood", "description"}
 _TRANSITION = {"from", "to", "from_region", "to_region", "likelihood", "blend", "interruptible", "description"}
 
 
@@ -91,7 +92,7 @@ def load_graph(path: str | Path, progress: bool = False) -> Graph:
     entries = raw.get("verbs")
     if not isinstance(entries, list) or not entries:
         raise GraphSpecError(path, "a graph needs at least one [[verbs]] entry", "verbs")
-    verbs, loops, names = [], [], []
+    verbs, loops, names, clamps = [], [], [], []
     for i, entry in enumerate(entries):
         where = f"verbs[{i + 1}]"
         if not isinstance(entry, dict):
@@ -137,7 +138,11 @@ def load_graph(path: str | Path, progress: bool = False) -> Graph:
         loop = _number(path, entry.get("loop_likelihood", 1.0), f"{where}.loop_likelihood")
         if not loop > 0:
             raise GraphSpecError(path, f"must be a positive number, got {loop:g}", f"{where}.loop_likelihood")
+        clamp = entry.get("clamp", False)
+        if not isinstance(clamp, bool):
+            raise GraphSpecError(path, f"must be true or false, got {clamp!r}", f"{where}.clamp")
         verbs.append(verb)
+        clamps.append(clamp)
         loops.append(loop)
         names.append(name)
 
@@ -185,7 +190,7 @@ def load_graph(path: str | Path, progress: bool = False) -> Graph:
         _number(path, x, f"adverbs.{k}")
     start = verb_named(raw["start"], "start") if "start" in raw else 0
     try:
-        return Graph.make(str(raw.get("name", path.stem)), verbs, transitions, defaults, start, loops, str(path))
+        return Graph.make(str(raw.get("name", path.stem)), verbs, transitions, defaults, start, loops, str(path), clamps)
     except AdverbsError as e:
         field = "adverbs" if "default for adverb" in str(e) else "transitions" if "no way out" in str(e) else None
         raise GraphSpecError(path, str(e), field) from None

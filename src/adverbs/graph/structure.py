@@ -71,6 +71,8 @@ class Graph:
     transitions : tuple of Transition
     start : int
         The verb creatures start in.
+    clamped : tuple of bool
+        For each verb, whether it plays at its adverbs kept inside its examples' ranges.
     source : str
         Where the graph came from (a spec file), for messages.
     """
@@ -83,6 +85,7 @@ class Graph:
     transitions: tuple[Transition, ...]
     start: int = 0
     source: str = ""
+    clamped: tuple[bool, ...] = ()
 
     @classmethod
     def make(
@@ -94,6 +97,7 @@ class Graph:
         start: int = 0,
         loop_likelihoods: Sequence[float] | None = None,
         source: str = "",
+        clamped: Sequence[bool] | None = None,
     ) -> Graph:
         """Check and assemble a graph; a cyclic verb without a transition into itself gets one (``loop_likelihoods``)."""
         verbs = tuple(verbs)
@@ -132,7 +136,15 @@ class Graph:
         if not 0 <= start < len(verbs):
             raise AdverbsError(f"graph {name!r}: start verb {start} is not one of its {len(verbs)} verbs")
         values.setflags(write=False)
-        return cls(name, verbs, tuple(adverb_names), values, columns, tuple(edges), int(start), source)
+        clamped = tuple(bool(x) for x in (clamped if clamped is not None else [False] * len(verbs)))
+        return cls(name, verbs, tuple(adverb_names), values, columns, tuple(edges), int(start), source, clamped)
+
+    def verb_points(self, v: int, points: np.ndarray) -> np.ndarray:
+        """Verb ``v``'s adverb points ``(C, A_v)`` from graph points ``(C, A)`` (kept inside its examples if clamped)."""
+        p = np.ascontiguousarray(points[:, self.columns[v]])
+        if self.clamped and self.clamped[v]:
+            p = np.clip(p, self.verbs[v].points.min(axis=0), self.verbs[v].points.max(axis=0))
+        return p
 
     # ----- lookups ----------------------------------------------------------------------------------
     @property
@@ -247,6 +259,7 @@ class Graph:
                     "adverbs": list(v.adverb_names),
                     "ignores": [a for a in self.adverb_names if a not in v.adverb_names],
                     "reaches": [self.verbs[j].name for j in self.reachable(i)],
+                    "clamped": bool(self.clamped and self.clamped[i]),
                 }
             )
         return {

@@ -144,19 +144,28 @@ class FootPlanter:
         return tilt(self.floor.normal(xz))
 
     def targets(
-        self, free_pos: np.ndarray, free_rot: np.ndarray, generic: np.ndarray, dt: float | np.ndarray
+        self,
+        free_pos: np.ndarray,
+        free_rot: np.ndarray,
+        generic: np.ndarray | None,
+        dt: float | np.ndarray,
+        phases: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Advance the state by one frame; the effectors' targets ``(C, L, 3)`` and wanted foot orientations ``(C, L, 3, 3)``.
 
         ``free_pos (C, L, 3)`` and ``free_rot (C, L, 3, 3)``: where the verb puts each effector and the
         global orientation of its foot (the chain's end) this frame; ``generic (C,)``: the frame's
         generic time; ``dt``: seconds since the previous frame (one for all, or ``(C,)``). The orientations
-        include the floor's tilt.
+        include the floor's tilt. ``phases``: instead of ``generic``, whether each hold is open ``(C, L)`` and
+        how far each foot has rolled off ``(C, L)``, from elsewhere (a verb graph's blend of two verbs).
         """
         verb, floor, tip = self.verb, self.floor, self.chains.tip_offset
         follows = np.broadcast_to(np.isnan(self.heights), self.mode.shape)  # effectors that keep the verb's height
         height = np.where(follows, 0.0, self.heights)
-        inside, turn = hold_modes(self.verb.cyclic, np.asarray(generic, dtype=float)[:, None], self.opens, self.times)
+        if phases is None:
+            inside, turn = hold_modes(self.verb.cyclic, np.asarray(generic, dtype=float)[:, None], self.opens, self.times)
+        else:
+            inside, turn = (np.asarray(x) for x in phases)
         # How far the verb's effector is above its contact height (its own floor at these adverbs).
         lift = np.where(follows, 0.0, free_pos[..., 1] - verb.floor - height)
         if not self.started:  # the verb's level from the feet that are down now, else none
@@ -284,10 +293,16 @@ class FootPlanter:
 
     # ----- one frame, legs solved -------------------------------------------------------------
     def step(
-        self, rotations: np.ndarray, translations: np.ndarray, generic: np.ndarray, dt: float
+        self,
+        rotations: np.ndarray,
+        translations: np.ndarray,
+        generic: np.ndarray | None,
+        dt: float,
+        phases: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> tuple[np.ndarray, np.ndarray, ik.IKResult]:
         """Plant the feet of one frame of ``C`` creatures: local ``rotations (C, J, 4)``, ``translations (C, J, 3)``
-        of the verb's motion, their generic times ``(C,)`` and the seconds since the previous frame.
+        of the verb's motion, their generic times ``(C,)`` (or ``phases``, see :meth:`targets`) and the seconds
+        since the previous frame.
 
         Returns the planted rotations and translations and the IK result (root drop, misses).
         """
@@ -295,7 +310,7 @@ class FootPlanter:
         translations = np.asarray(translations, dtype=float)
         gpos, grot = forward_kinematics(self.verb.skeleton.parents, rotations, translations)
         free_pos, free_rot = gpos[:, self.tips], quat.to_matrix(grot[:, self.chains.end])
-        targets, wanted = self.targets(free_pos, free_rot, generic, dt)
+        targets, wanted = self.targets(free_pos, free_rot, generic, dt, phases)
         rise = _rise(self.verb, self.floor, gpos[:, self.verb.encoding.body_root], targets)
         drop = self.drop_for(gpos[:, self.chains.upper], rise, targets, wanted, dt)
         risen = _ride_floor(self.verb, self.chains, translations, grot, rise)
@@ -413,7 +428,7 @@ def phase_masks(
     return ball, ball & (turn == 0.0), inside & (turn == 0.0)
 
 
-def _mode_masks(modes: np.ndarray, turns: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def mode_masks(modes: np.ndarray, turns: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Ball held, foot flat and heel held ``(F, L)`` from the planter's modes and turn-back weights."""
     ball = modes == BALL
     return ball, ball & (turns == 0.0), (modes != FREE) & (turns == 0.0)
@@ -488,7 +503,7 @@ def plant_feet_many(
     rots, trans, targets, tilts, starts, masks, min_drops = [], [], [], [], [0], [], []
     for i, ((clip, _, _), (_, grot)) in enumerate(zip(motions, fk)):
         n = clip.num_frames
-        masks.append(_mode_masks(modes[:n, i], turns[:n, i]))
+        masks.append(mode_masks(modes[:n, i], turns[:n, i]))
         rots.append(clip.rotations)
         trans.append(_ride_floor(verb, planter.chains, clip.translations, grot, rises[:n, i]))
         targets.append(tg[:n, i])
