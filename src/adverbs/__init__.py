@@ -9,6 +9,7 @@ The package is cut in layers, each a subpackage that imports only from the ones 
 | :mod:`adverbs.motion` | clips, heading, DOF encodings, foot contacts, cutting examples |
 | :mod:`adverbs.io` | BVH read and write |
 | :mod:`adverbs.verb` | a verb's tables, building, sampling, synthesis, files, specs, measures, planted feet |
+| :mod:`adverbs.graph` | verb graphs: specs, transitions, the planner, creatures stepping through them |
 | :mod:`adverbs.apps` | the command line and evaluation |
 
 What most users need is re-exported here, so ``import adverbs`` is enough.
@@ -16,6 +17,7 @@ What most users need is re-exported here, so ``import adverbs`` is enough.
 
 from .errors import AdverbsError, BVHError
 from .interp import AdverbInterpolator
+from .graph import CommandRefused, Cue, Graph, GraphSpecError, load_graph, perform
 from .io import format_bvh, parse_bvh, read_bvh, write_bvh
 from .kinematics import FlatFloor, HeightMapFloor, LegChains, Skeleton, SlopeFloor, forward_kinematics, ik, quat
 from .motion import Clip, DofEncoding, cut_steps, find_contacts
@@ -47,11 +49,15 @@ __all__ = [
     "AdverbsError",
     "BVHError",
     "Clip",
+    "CommandRefused",
+    "Cue",
     "Constraint",
     "DofEncoding",
     "Example",
     "FlatFloor",
     "FootPlanter",
+    "Graph",
+    "GraphSpecError",
     "HeightMapFloor",
     "LegChains",
     "SamplingState",
@@ -68,10 +74,12 @@ __all__ = [
     "format_bvh",
     "forward_kinematics",
     "ik",
+    "load_graph",
     "load_spec",
     "load_verb",
     "measure_feet",
     "parse_bvh",
+    "perform",
     "plant_feet",
     "plant_feet_many",
     "quat",

@@ -8,6 +8,8 @@
                   [--no-ik] [--method M] [--clamp [MARGIN]] [--floor slope:DEGREES | FILE.npz] -o OUT.bvh
     adverbs evaluate VERB [--png PLOT.png] [--json]
     adverbs heldout [--data DIR]
+    adverbs graph GRAPH.toml [--describe [--json] | --plan FROM TO | --play SCRIPT -o OUT.bvh [--seconds S]
+                  [--fps F] [--seed N] [--adverb NAME=VALUE ...] [--floor ...] [--start VERB]]
 
 Errors in the input print one line naming the file and line and exit with status 1.
 """
@@ -108,6 +110,16 @@ def _number(text: str, zero: bool) -> float:
     return value
 
 
+def _seed(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number ≥ 0, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a whole number ≥ 0, got {text!r}")
+    return value
+
+
 def _positive(text: str) -> float:
     return _number(text, zero=False)
 
@@ -176,7 +188,98 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("heldout", help="predict held-out takes of the Bandai dataset-2 classes from the others")
     p.add_argument("--data", type=Path, default=DATA, help="folder of the Bandai BVH files (default: the shipped ones)")
+
+    p = sub.add_parser(
+        "graph", help="a verb graph (spec TOML): describe it, plan a path through it, or play a script of commands",
+        description=(
+            "Load a verb graph (a graph spec TOML; its verbs are built as it loads, progress on stderr) and "
+            "describe it (the default), plan the fewest transitions between two verbs, or play one creature "
+            "through it following a script of timed commands and write the planted motion as BVH."
+        ),
+        epilog=(
+            "SCRIPT is a comma-separated list of cues, each TIME:VERB (perform VERB from TIME seconds on) or "
+            "TIME:NAME=VALUE (set adverb NAME from TIME on), e.g. --play \"1:run,4.5:turn=30,6:walk\". Before a "
+            "command, and after it is done, the creature takes default transitions drawn by likelihood (--seed). "
+            "Commands the graph refuses (an unknown or unreachable verb, an unknown adverb) are reported as "
+            "warnings; the run goes on. Examples: adverbs graph graphs/cmu.toml; adverbs graph graphs/cmu.toml "
+            "--plan walk run; adverbs graph graphs/cmu.toml --play \"0.5:run,4:walk\" --seconds 6 -o out/walk_run.bvh"
+        ),
+    )  # fmt: skip
+    p.add_argument("graph", type=Path, metavar="GRAPH.toml", help="a graph spec (graphs/ has the shipped ones)")
+    action = p.add_mutually_exclusive_group()
+    action.add_argument(
+        "--describe", action="store_true",
+        help="list the verbs, shared adverbs, transitions and what each verb reaches (default)",
+    )  # fmt: skip
+    action.add_argument("--plan", nargs=2, metavar=("FROM", "TO"), help="the fewest transitions from FROM to TO")
+    action.add_argument("--play", type=_script, metavar="SCRIPT", help="play a script of cues (see below); needs -o")
+    p.add_argument("--json", action="store_true", help="with --describe: print JSON instead of text")
+    p.add_argument("-o", "--output", type=Path, help="with --play: the BVH file to write (the planted motion)")
+    p.add_argument("--seconds", type=_positive, help=f"with --play: how long to play (default {GRAPH_SECONDS:g})")
+    p.add_argument("--fps", type=_positive, help=f"with --play: frame rate (default {GRAPH_FPS:g})")
+    p.add_argument("--seed", type=_seed, help="with --play: seeds the transitions drawn by likelihood (default 0)")
+    p.add_argument(
+        "--adverb", action="append", type=_assignment, metavar="NAME=VALUE",
+        help="with --play: where a graph adverb starts (repeat; default: the graph's defaults)",
+    )  # fmt: skip
+    p.add_argument(
+        "--floor", metavar="slope:DEGREES|flat:LEVEL|FILE",
+        help="with --play: the ground the feet are planted on (default flat at height 0)",
+    )  # fmt: skip
+    p.add_argument("--start", metavar="VERB", help="with --play: the verb to start in (default: the graph's)")
+    p.set_defaults(graph_parser=p)
     return parser
+
+
+GRAPH_SECONDS = 10.0  # adverbs graph --play: default length
+GRAPH_FPS = 30.0
+_PLAY_ONLY = ("output", "seconds", "fps", "seed", "adverb", "floor", "start")
+
+
+def _script(text: str) -> list:
+    """The cues of ``--play``: comma-separated ``TIME:VERB`` or ``TIME:NAME=VALUE``, checked before any work."""
+    from ..graph import Cue
+
+    cues = []
+    form = "expected TIME:VERB or TIME:NAME=VALUE (e.g. 1:run or 4.5:turn=30)"
+    for raw in text.split(","):
+        cue = raw.strip()
+        if not cue:
+            raise argparse.ArgumentTypeError(f"an empty cue in {text!r} (two commas, or one at an end): {form}")
+        when, sep, what = (x.strip() for x in cue.partition(":"))
+        if not sep or not when or not what:
+            raise argparse.ArgumentTypeError(f"cue {cue!r}: {form}")
+        try:
+            t = float(when)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"cue {cue!r}: the time {when!r} is not a number of seconds") from None
+        if not (np.isfinite(t) and t >= 0):
+            raise argparse.ArgumentTypeError(f"cue {cue!r}: the time must be a number of seconds ≥ 0, got {when!r}")
+        name, sep, value = (x.strip() for x in what.partition("="))
+        if not name or any(c.isspace() or c in ":=" for c in name):
+            raise argparse.ArgumentTypeError(f"cue {cue!r}: {form}")
+        if not sep:
+            cues.append(Cue(t, verb=name))
+            continue
+        try:
+            name, number = _assignment(f"{name}={value}")
+        except argparse.ArgumentTypeError as e:
+            raise argparse.ArgumentTypeError(f"cue {cue!r}: adverb {e}") from None
+        cues.append(Cue(t, adverbs={name: number}))
+    return cues
+
+
+def _check_graph_usage(args: argparse.Namespace) -> None:
+    """Options of ``adverbs graph`` that belong to another action are usage errors (status 2)."""
+    sub = args.graph_parser  # its own usage line in the message
+    if args.json and (args.plan or args.play is not None):
+        sub.error("--json goes with --describe")
+    if args.play is None:
+        given = [f"--{k}" if k != "output" else "-o" for k in _PLAY_ONLY if getattr(args, k) is not None]
+        if given:
+            sub.error(f"{', '.join(given)} {'goes' if len(given) == 1 else 'go'} with --play")
+    elif args.output is None:
+        sub.error("--play needs -o OUT.bvh")
 
 
 def _assignment(text: str) -> tuple[str, float]:
@@ -256,6 +359,139 @@ def _print_describe(d: dict) -> None:
               f"(pose between frames {x['fine_error_mm']:.1f} mm)")
 
 
+def _print_graph(d: dict) -> None:
+    """``adverbs graph --describe``: the verbs, shared adverbs, transitions and reachability of ``Graph.describe()``."""
+    added = sum(t["added"] for t in d["transitions"])
+    print(
+        f"graph {d['name']} ({d['source']}): {len(d['verbs'])} verbs, {len(d['transitions'])} transitions "
+        f"({added} added by the graph); creatures start in {d['start']}"
+    )
+    print("  adverbs (shared by name: every verb that takes one reads the same value), where they start:")
+    width = max((len(a) for a in d["adverbs"]), default=0)
+    values = {a: f"{x:.4g}" for a, x in d["adverbs"].items()}
+    wide = max((len(x) for x in values.values()), default=0)
+    for a, x in values.items():
+        takers = [v["name"] for v in d["verbs"] if a in v["adverbs"]]
+        print(f"    {a:<{width}} = {x:<{wide}}  taken by {', '.join(takers)}")
+    if not d["adverbs"]:
+        print("    none")
+    print("  verbs:")
+    width = max(len(v["name"]) for v in d["verbs"])
+    for v in d["verbs"]:
+        kind = "cyclic  " if v["cyclic"] else "one-shot"
+        takes = ", ".join(v["adverbs"]) or "no adverbs"
+        ignores = f"; ignores {', '.join(v['ignores'])}" if v["ignores"] else ""
+        clamped = "; clamped to its examples' ranges" if v["clamped"] else ""
+        start = "  (start)" if v["name"] == d["start"] else ""
+        print(f"    {v['name']:<{width}}  {kind} {v['examples']:>2} examples; takes {takes}{ignores}{clamped}{start}")
+    print("  transitions (regions in generic time; chance: how often it is drawn when nothing is asked):")
+    out_of: dict[str, float] = {}
+    for t in d["transitions"]:
+        out_of[t["from"]] = out_of.get(t["from"], 0.0) + t["likelihood"]
+    arrows = [f"{t['from']} → {t['to']}" for t in d["transitions"]]
+    width = max((len(a) for a in arrows), default=0)
+    for arrow, t in zip(arrows, d["transitions"]):
+        (a0, a1), (b0, b1) = t["from_region"], t["to_region"]
+        print(
+            f"    {arrow:<{width}}  from_region [{a0:.2f}, {a1:.2f}], to_region [{b0:.2f}, {b1:.2f}], "
+            f"likelihood {t['likelihood']:g} (chance {t['likelihood'] / out_of[t['from']]:.0%}), {t['blend']}"
+            f"{', interruptible' if t['interruptible'] else ', not interruptible'}"
+            f"{', added: the cycle loops into itself' if t['added'] else ''}"
+        )
+    print("  reachability:")
+    names = [v["name"] for v in d["verbs"]]
+    width = max(len(n) for n in names)
+    for v in d["verbs"]:
+        cannot = [n for n in names if n not in v["reaches"]]
+        also = f" (not {', '.join(cannot)})" if cannot else ""
+        print(f"    from {v['name']:<{width}} reaches {', '.join(v['reaches'])}{also}")
+    start = next(v for v in d["verbs"] if v["name"] == d["start"])
+    lost = [n for n in names if n not in start["reaches"]]
+    if lost:
+        them = "it" if len(lost) == 1 else "them"
+        print(
+            f"  warning: {', '.join(lost)} cannot be reached from the start verb {d['start']}: a creature starting "
+            f"there never plays {them} (commands to {them} are refused)"
+        )
+    else:
+        print(f"  every verb can be reached from the start verb {d['start']}")
+
+
+def _play_line(graph, perf, floor, output: Path) -> str:
+    """The one line ``adverbs graph --play`` prints: what was written, what played, latencies and the feet."""
+    clip = perf.planted
+    played = [graph.verb_names[v] for v in perf.verb]
+    order = [n for i, n in enumerate(played) if i == 0 or played[i - 1] != n]
+    waits = [f"{name} {seconds:.2f} s" for _, name, seconds in perf.state.latencies]
+    if perf.state.goal[0] >= 0:
+        waits.append(f"{graph.verb_names[perf.state.goal[0]]} not reached by the end")
+    latency = f"command latencies: {', '.join(waits)}" if waits else "no verb commands"
+    holding = next((v for v in graph.verbs if v.holds), None)
+    if holding is None:
+        feet = "feet not planted (no verb of the graph holds a foot)"
+    else:
+        metrics = measure_feet(holding, clip, perf.report, floor, perf.free)
+        feet = f"feet planted: {metrics.line()}" if len(metrics.toe_drift) else "feet planted: no contact phase"
+    return (
+        f"wrote {output}: {clip.num_frames} frames at {clip.fps:g} fps = {clip.num_frames / clip.fps:.2f} s; "
+        f"played {' → '.join(order)}; {latency}; {feet}"
+    )
+
+
+def _graph(args: argparse.Namespace) -> None:
+    from ..graph import load_graph, perform
+    from ..graph.performance import MAX_SECONDS
+    from ..kinematics.floor import FlatFloor
+
+    if args.play is not None:  # everything about the run that can be checked before the graph is built
+        seconds = GRAPH_SECONDS if args.seconds is None else args.seconds
+        fps = GRAPH_FPS if args.fps is None else args.fps
+        if seconds > MAX_SECONDS:
+            raise AdverbsError(f"--seconds {seconds:g}: at most {MAX_SECONDS:g}")
+        if not 1 <= fps <= 1000:
+            raise AdverbsError(f"--fps {fps:g}: must be from 1 to 1000")
+        floor = parse_floor(args.floor) if args.floor is not None else FlatFloor(0.0)
+        last = (round(seconds * fps) - 1) / fps  # the time of the last frame: a cue after it never plays
+        for c in args.play:
+            if c.time > last + 1e-9:
+                what = c.verb if c.verb is not None else ", ".join(f"{k}={v:g}" for k, v in c.adverbs.items())
+                warn = f"adverbs: warning: cue {c.time:g}:{what} comes after the last frame ({last:.3f} s)"
+                print(warn, file=sys.stderr)
+    print(f"loading graph {args.graph}", file=sys.stderr)
+    start = time.perf_counter()
+    graph = load_graph(args.graph, progress=True)
+    print(f"  loaded graph {graph.name!r} in {time.perf_counter() - start:.1f} s", file=sys.stderr)
+    if args.plan:
+        a, b = args.plan
+        path = graph.path(a, b)
+        for k in path:
+            t = graph.transitions[k]
+            (a0, a1), (b0, b1) = t.source_region, t.target_region
+            print(
+                f"{graph.verb_names[t.source]} → {graph.verb_names[t.target]}  (from_region [{a0:.2f}, {a1:.2f}] "
+                f"to_region [{b0:.2f}, {b1:.2f}], {t.blend})"
+            )
+        n = len(path)
+        print(f"{n} transition{'' if n == 1 else 's'} from {a} to {b}" + (" (already there)" if not n else ""))
+    elif args.play is not None:
+        print(f"  playing {seconds:g} s at {fps:g} fps", file=sys.stderr)
+        perf = perform(
+            graph, args.play, seconds=seconds, fps=fps, seed=args.seed or 0, floor=floor, start=args.start,
+            adverbs=dict(args.adverb or []),
+        )  # fmt: skip
+        for when, reason in perf.refused:
+            print(f"adverbs: warning: command at {when:g} s refused: {reason}", file=sys.stderr)
+        args.output.parent.mkdir(parents=True, exist_ok=True)
+        write_bvh(perf.planted, args.output)
+        print(_play_line(graph, perf, floor, args.output))
+    else:
+        d = graph.describe()
+        if args.json:
+            print(json.dumps(d, indent=2))
+        else:
+            _print_graph(d)
+
+
 def _run(args: argparse.Namespace) -> None:
     if args.command == "info":
         clip = read_bvh(args.file)
@@ -332,6 +568,8 @@ def _run(args: argparse.Namespace) -> None:
         values = ", ".join(f"{n}={v:g}" for n, v in zip(verb.adverb_names, p)) or "its one example"
         how = "" if args.method == "ours" else f" by {args.method}"
         print(f"wrote {args.output}: {verb.name}{how} at {values}; {clip.num_frames} frames, cycle {k[-1]:.3f} s; {feet}")
+    elif args.command == "graph":
+        _graph(args)
     elif args.command == "heldout":
         print(held_out(data=args.data).table())
     elif args.command == "evaluate":
@@ -353,6 +591,8 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    if args.command == "graph":
+        _check_graph_usage(args)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("always", AdverbsWarning)

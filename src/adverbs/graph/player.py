@@ -46,12 +46,12 @@ from ..kinematics import quat
 from ..kinematics.fk import forward_kinematics
 from ..verb._sampling_kernel import GENERIC, VELOCITIES
 from ..kinematics.floor import Floor
-from ..verb.planting import FootPlanter, effector_joints, hold_modes
+from ..verb.planting import BALL, FREE, FootPlanter, effector_joints, hold_modes
 from ..verb.sampling import SamplingState, run_kernel
 from .structure import CommandRefused, Graph
 
 INERTIAL_HALFLIFE = 0.2  # of a transition's duration: the half-life of an inertial offset's decay
-INTERRUPT_HALFLIFE = 0.1  # seconds: the half-life of the offset an interruption leaves
+INTERRUPT_HALFLIFE = 0.2  # seconds: the shortest half-life of the offset an interruption leaves
 MIN_DURATION = 0.1  # seconds: no transition is shorter
 _LN2 = math.log(2.0)
 _LATE = 1e-9  # generic time: a region start this close behind is not yet gone by
@@ -131,6 +131,8 @@ class GraphState:
     offset_halflife: np.ndarray
     shown: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
     shown_before: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+    inertial: np.ndarray | None = None
+    alone: np.ndarray | None = None
     held_before: np.ndarray | None = None
     latencies: list[tuple[int, str, float]] = field(default_factory=list)
     caches: dict = field(default_factory=dict)
@@ -160,7 +162,8 @@ def new_state(
     a = len(graph.adverb_names)
     p = np.tile(graph.defaults, (c, 1)) if points is None else np.array(np.broadcast_to(np.asarray(points, dtype=float), (c, a)))
     if not np.all(np.isfinite(p)):
-        raise AdverbsError("adverb values must be finite numbers (got NaN or infinity)")
+        bad = graph.adverb_names[int(np.flatnonzero(~np.isfinite(p).all(axis=0))[0])]
+        raise AdverbsError(f"adverb {bad!r} must be a finite number (got NaN or infinity)")
     r = np.zeros((c, 3)) if root is None else np.array(np.broadcast_to(np.asarray(root, dtype=float), (c, 3)))
     j = graph.skeleton.num_joints
     state = GraphState(
@@ -170,6 +173,7 @@ def new_state(
         np.zeros(c, dtype=bool), np.zeros((c, j, 3)), np.zeros((c, j, 3)), np.zeros((c, j, 3)), np.zeros((c, j, 3)),
         np.zeros((c, 3)), np.full(c, 1e9), np.full(c, INTERRUPT_HALFLIFE),
     )  # fmt: skip
+    state.inertial = np.zeros(c, dtype=bool)
     for k in range(c):
         _settle_queue(state, k)
     return state
@@ -208,8 +212,18 @@ def command(state: GraphState, creature: int, verb: str | int) -> list[int]:
     path = graph.path(now, target)  # raises before anything changes
     state.goal[c] = target
     state.asked[c] = state.time[c]
-    if state.active[c] >= 0 and graph.transitions[state.active[c]].interruptible:
+    if state.active[c] >= 0 and target != state.into[c] and graph.transitions[state.active[c]].interruptible:
+        if target == state.verb[c] and graph.verbs[target].cyclic and not state.inertial[c]:
+            _reverse(state, c)  # back to the cycle it was leaving, by the same blend
+            state.queue[c] = []
+            return []
         _interrupt(state, c)
+        state.queue[c] = list(path)
+        first = graph.transitions[path[0]]
+        if not graph.verbs[first.source].cyclic and state.g[c] >= first.source_region[0]:
+            # The way on from the verb being entered is open already: take it at once, from the pose shown.
+            _start(state, c, 0.0, inertial=True)
+            return list(path)
     state.queue[c] = list(path)
     if state.active[c] < 0:
         _settle_queue(state, c)
@@ -218,12 +232,26 @@ def command(state: GraphState, creature: int, verb: str | int) -> list[int]:
     return list(state.queue[c])
 
 
+def _reverse(state: GraphState, c: int) -> None:
+    """Turn creature ``c``'s blend back towards the verb it was leaving: both verbs play on from where they are,
+    at the rates they had, and the weight of the one being left climbs back to 1 by the same cosine law."""
+    sa, ea, sb, eb = state.regions[c]
+    back = 1.0 - state.beta[c]
+    a = state.g_into[c] - back * (eb - sb)
+    b = state.g[c] - back * (ea - sa)
+    state.regions[c] = (a, a + (eb - sb), b, b + (ea - sa))
+    state.verb[c], state.into[c] = state.into[c], state.verb[c]
+    state.g[c], state.g_into[c] = state.g_into[c], state.g[c]
+    state.beta[c] = back
+
+
 def _interrupt(state: GraphState, c: int) -> None:
     """Drop the verb being left: the one being entered plays on alone from the pose now shown."""
     state.verb[c], state.g[c] = state.into[c], state.g_into[c]
     state.active[c], state.into[c] = -1, -1
     state.rebase[c] = True
-    state.offset_halflife[c] = INTERRUPT_HALFLIFE
+    # The rest of the blend is left to the offset's decay, over about the time the blend had still to run.
+    state.offset_halflife[c] = max(INERTIAL_HALFLIFE * state.length[c], INTERRUPT_HALFLIFE)
     if state.g[c] < 0.0:  # B was playing the end of its previous cycle: it is that cycle's end now
         state.g[c] += 1.0
 
@@ -293,8 +321,9 @@ def _generic(state: GraphState, verbs: np.ndarray, clock: np.ndarray, slot: int,
     return out
 
 
-def _start(state: GraphState, c: int, late: float) -> None:
-    """Start creature ``c``'s next transition; ``late``: seconds of this frame left after its region began."""
+def _start(state: GraphState, c: int, late: float, inertial: bool = False) -> None:
+    """Start creature ``c``'s next transition; ``late``: seconds of this frame left after its region began;
+    ``inertial``: blend it inertially whatever the graph says (a command that interrupted a blend)."""
     graph = state.graph
     k = state.queue[c].pop(0)
     t = graph.transitions[k]
@@ -318,9 +347,10 @@ def _start(state: GraphState, c: int, late: float) -> None:
     state.length[c] = max(length, MIN_DURATION)
     state.beta[c] = min(late / state.length[c], 1.0)
     state.g_into[c] = sb
-    if t.blend == "inertial":  # B at once, the pose shown decaying onto it
+    state.inertial[c] = inertial or t.blend == "inertial"
+    if state.inertial[c]:  # B at once, the pose shown decaying onto it
         state.rebase[c] = True
-        state.offset_halflife[c] = INERTIAL_HALFLIFE * state.length[c]
+        state.offset_halflife[c] = max(INERTIAL_HALFLIFE * state.length[c], INTERRUPT_HALFLIFE if inertial else 0.0)
 
 
 def _finish(state: GraphState, c: int) -> None:
@@ -328,6 +358,10 @@ def _finish(state: GraphState, c: int) -> None:
     state.verb[c], state.g[c] = state.into[c], state.g_into[c]
     if state.g[c] < 0.0 and abs(state.g[c]) < 1e-9:
         state.g[c] = 0.0
+    if not state.graph.verbs[state.verb[c]].cyclic:
+        state.g[c] = min(state.g[c], 1.0)
+    elif state.g[c] >= 1.0:  # a blend turned back ran a cycle past its end: on in the next (the seam is the fit's)
+        state.g[c] -= np.floor(state.g[c])
     state.active[c], state.into[c] = -1, -1
     _settle_queue(state, c)
     _arrived(state, c)
@@ -372,7 +406,7 @@ def _place(state: GraphState, rows: np.ndarray) -> None:
     """Put A and B of the creatures ``rows`` in transition where ``β`` says: each clock through its region."""
     if len(rows) == 0:
         return
-    inertial = np.array([state.graph.transitions[k].blend == "inertial" for k in state.active[rows]])
+    inertial = state.inertial[rows]
     sa, ea, sb, eb = state.regions[rows].T
     beta = state.beta[rows]
     ca0, ca1 = _clock(state, state.verb, sa, 0, rows), _clock(state, state.verb, ea, 0, rows)
@@ -388,8 +422,7 @@ def _rates(state: GraphState, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     sa, ea, sb, eb = state.regions[rows].T
     ca = _clock(state, state.verb, ea, 0, rows) - _clock(state, state.verb, sa, 0, rows)
     cb = _clock(state, state.into, eb, 1, rows) - _clock(state, state.into, sb, 1, rows)
-    inertial = np.array([state.graph.transitions[k].blend == "inertial" for k in state.active[rows]])
-    return ca / state.length[rows], np.where(inertial, 1.0, cb / state.length[rows])
+    return ca / state.length[rows], np.where(state.inertial[rows], 1.0, cb / state.length[rows])
 
 
 def _dofs(state: GraphState, verbs: np.ndarray, g: np.ndarray, slot: int, rows: np.ndarray) -> dict[int, tuple[np.ndarray, np.ndarray]]:
@@ -422,8 +455,7 @@ class _Base:
 def _sample(state: GraphState, g_a: np.ndarray, g_b: np.ndarray) -> _Base:
     c_all = np.arange(state.creatures)
     moving = c_all[state.active >= 0]
-    inertial = np.zeros(state.creatures, dtype=bool)
-    inertial[moving] = [state.graph.transitions[k].blend == "inertial" for k in state.active[moving]]
+    inertial = (state.active >= 0) & state.inertial
     rate_a, rate_b = np.ones(state.creatures), np.ones(state.creatures)
     if len(moving):
         rate_a[moving], rate_b[moving] = _rates(state, moving)
@@ -543,7 +575,10 @@ def step(state: GraphState, dt: float) -> Frame:
         rot[live] = quat.mul(quat.exp(_spring(state.offset_rot[live], state.offset_rot_vel[live], t, h)), rot[live])
         trans[live] += _spring(state.offset_trans[live], state.offset_trans_vel[live], t, h)
     held, roll = hold_phases(state)
-    new_root = _keep_feet(state, rot, trans, new_root, held, roll)
+    blended = np.zeros(state.creatures, dtype=bool)
+    blended[live] = True
+    state.alone = (state.active < 0) & ~blended
+    new_root = _keep_feet(state, rot, trans, new_root, held, roll, blended)
     vel = _velocity(state.root, new_root, dt)
     state.root = new_root
     state.shown_before, state.shown = state.shown, (rot, trans, vel)
@@ -559,20 +594,28 @@ def _velocity(old: np.ndarray, new: np.ndarray, dt: float) -> np.ndarray:
     return np.stack([v[:, 0], v[:, 2], turn], axis=1)
 
 
-def _keep_feet(state: GraphState, rot: np.ndarray, trans: np.ndarray, root: np.ndarray, held: np.ndarray, roll: np.ndarray) -> np.ndarray:
-    """Roots ``(C, 3)`` of creatures in a cosine blend moved so the feet both verbs hold stay where they were shown.
+def _keep_feet(
+    state: GraphState, rot: np.ndarray, trans: np.ndarray, root: np.ndarray, held: np.ndarray, roll: np.ndarray,
+    offset: np.ndarray,
+) -> np.ndarray:  # fmt: skip
+    """Roots ``(C, 3)`` of creatures in a cosine blend, or with a decaying ``offset (C,)``, moved so the feet their
+    verbs hold stay where they were shown.
 
     Blending two verbs whose stance feet sit at different places under the body slides a held foot by
     ``α'(A − B)``, however well each verb alone keeps it still; the body is carried instead, by the mean slip of
     the held feet, each weighted by how flat it still is (``1 − roll``), so the weight fades as a foot rolls off.
     ``trans`` (the body root's) is moved with it, in place. A verb's loop into itself blends two instances of one
-    verb, which keep their feet alike: its root is the verb's own, so it turns and travels as the verb does.
+    verb, which keep their feet alike: its root is the verb's own, so it turns and travels as the verb does. A
+    decaying offset (an inertial blend, an interruption) moves the legs as a blend does, and the body is carried
+    the same way.
     """
-    rows = np.flatnonzero(state.active >= 0)
-    if not len(rows) or state.shown is None or state.held_before is None:
+    if state.shown is None or state.held_before is None:
         return root
     ts = state.graph.transitions
-    rows = rows[[ts[k].blend == "cosine" and ts[k].source != ts[k].target for k in state.active[rows]]]
+    blending = offset.copy()
+    moving = np.flatnonzero(state.active >= 0)
+    blending[moving] |= ~state.inertial[moving] & np.array([ts[k].source != ts[k].target for k in state.active[moving]], dtype=bool)
+    rows = np.flatnonzero(blending)
     w = (held & state.held_before)[rows] * (1.0 - roll[rows])
     rows, w = rows[w.sum(axis=1) > 0], w[w.sum(axis=1) > 0]
     if not len(rows):
@@ -614,9 +657,8 @@ def hold_phases(state: GraphState) -> tuple[np.ndarray, np.ndarray]:
     held = np.zeros((c, len(tips)), dtype=bool)
     roll = np.zeros((c, len(tips)))
     c_all = np.arange(c)
-    inertial = np.zeros(c, dtype=bool)
     moving = c_all[state.active >= 0]
-    inertial[moving] = [graph.transitions[k].blend == "inertial" for k in state.active[moving]]
+    inertial = (state.active >= 0) & state.inertial
 
     def phases(verbs: np.ndarray, g: np.ndarray, slot: int, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         h = np.zeros((c, len(tips)), dtype=bool)
@@ -643,10 +685,40 @@ def hold_phases(state: GraphState) -> tuple[np.ndarray, np.ndarray]:
     return held, roll
 
 
-def planter(graph: Graph, creatures: int = 1, floor: Floor | None = None) -> FootPlanter:
-    """A :class:`~adverbs.verb.planting.FootPlanter` for ``creatures`` creatures of ``graph``, fed each frame's
-    :attr:`Frame.held` and :attr:`Frame.roll` (see :func:`plant`). Its legs and contact heights are those of the
-    first verb that holds feet; every verb that holds any must hold the same ones."""
+REPLANT = 0.06  # metres: a held foot this far (across the floor) from where the verb playing has it is re-placed
+REPLANTED = 0.01  # metres: ... until the released foot is this near the verb's again
+
+
+@dataclass
+class GraphFeet:
+    """A graph's foot planter for C creatures (:func:`planter`), and which feet it is moving to a new place.
+
+    A foot held across verbs that stand it in different places (a stand with the feet apart, then a walk)
+    ends up held where the verb playing does not have it, and the leg stretches. Such a foot, once a verb
+    plays alone and it is ``REPLANT`` away, is let go (the planter's inertialized release: it lifts, then
+    glides) and held again once it has come within ``REPLANTED`` of where the verb puts it.
+    """
+
+    planter: FootPlanter
+    replanting: np.ndarray
+
+    @property
+    def mode(self) -> np.ndarray:
+        return self.planter.mode
+
+    @property
+    def turn(self) -> np.ndarray:
+        return self.planter.turn
+
+    @property
+    def tips(self) -> np.ndarray:
+        return self.planter.tips
+
+
+def planter(graph: Graph, creatures: int = 1, floor: Floor | None = None) -> GraphFeet:
+    """The foot planter for ``creatures`` creatures of ``graph``, fed each frame's :attr:`Frame.held` and
+    :attr:`Frame.roll` by :func:`plant`. Its legs and contact heights are those of the first verb that holds feet;
+    every verb that holds any must hold the same ones."""
     holding = [v for v in graph.verbs if v.holds]
     if not holding:
         raise AdverbsError(f"graph {graph.name!r}: no verb holds a foot: nothing to plant")
@@ -658,9 +730,21 @@ def planter(graph: Graph, creatures: int = 1, floor: Floor | None = None) -> Foo
                 f"graph {graph.name!r}: verb {v.name!r} holds {[names[j] for j in effector_joints(v)]}, verb "
                 f"{holding[0].name!r} holds {[names[j] for j in tips]}: a graph's verbs must plant the same feet"
             )
-    return FootPlanter(holding[0], creatures, floor)
+    return GraphFeet(FootPlanter(holding[0], creatures, floor), np.zeros((creatures, len(tips)), dtype=bool))
 
 
-def plant(feet_planter: FootPlanter, frame: Frame, dt: float):
-    """The frame's feet planted: rotations ``(C, J, 4)``, translations ``(C, J, 3)`` and the IK result."""
-    return feet_planter.step(frame.rotations, frame.translations, None, dt, (frame.held, frame.roll))
+def plant(feet: GraphFeet, frame: Frame, dt: float, alone: np.ndarray | None = None):
+    """The frame's feet planted: rotations ``(C, J, 4)``, translations ``(C, J, 3)`` and the IK result.
+
+    ``alone (C,)``: which creatures play one verb alone this frame (no blend, no decaying offset); only their
+    feet are re-placed (see :class:`GraphFeet`). Default: none.
+    """
+    p = feet.planter
+    held = frame.held & ~feet.replanting
+    out = p.step(frame.rotations, frame.translations, None, dt, (held, frame.roll))
+    gap = np.linalg.norm((p.prev_free - p.target)[..., [0, 2]], axis=-1)
+    settled = np.linalg.norm(p._offset(), axis=-1) < REPLANTED
+    feet.replanting &= ~((p.mode == FREE) & settled & (p.since[..., 0] > 0))
+    if alone is not None:
+        feet.replanting |= alone[:, None] & (p.mode == BALL) & (p.turn == 0.0) & (gap > REPLANT)
+    return out

@@ -1,0 +1,404 @@
+"""Verb graphs (§5): the blend's laws, the planner, the draws, spec errors, and transitions on real capture."""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.stats import chisquare
+
+from adverbs.errors import AdverbsError, AdverbsWarning
+from adverbs.graph import (
+    CommandRefused,
+    Cue,
+    Graph,
+    GraphSpecError,
+    Transition,
+    blend_weight,
+    command,
+    load_graph,
+    new_state,
+    perform,
+    plant,
+    planter,
+    step,
+)
+from adverbs.interp import timewarp
+from adverbs.kinematics import quat
+from adverbs.motion.clip import Clip
+from adverbs.verb.planting import BALL, effector_joints, measure_feet, planted_drift
+from adverbs.verb.store import save_verb
+
+GRAPHS = Path(__file__).resolve().parent.parent / "graphs"
+DT = 1.0 / 30.0
+
+
+def _load(name):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", AdverbsWarning)
+        return load_graph(GRAPHS / f"{name}.toml")
+
+
+@pytest.fixture(scope="module")
+def cmu():
+    return _load("cmu")
+
+
+@pytest.fixture(scope="module")
+def bandai():
+    return _load("bandai")
+
+
+# ----- the blend's laws --------------------------------------------------------------------------
+
+
+def test_blend_weight_is_the_cosine_law():
+    beta = np.array([0.0, 0.25, 0.5, 0.75, 1.0])
+    np.testing.assert_allclose(blend_weight(beta), [1.0, 0.5 + 0.5 * np.sqrt(0.5), 0.5, 0.5 - 0.5 * np.sqrt(0.5), 0.0], rtol=0, atol=1e-15)
+    b = np.linspace(0, 1, 101)
+    np.testing.assert_allclose(blend_weight(b), 0.5 * np.cos(b * np.pi) + 0.5, rtol=0, atol=1e-15)
+
+
+POINTS = [
+    {"walk_speed": 1.3, "run_speed": 3.0, "turn": 0.0},
+    {"walk_speed": 1.0, "run_speed": 2.4, "turn": 40.0},
+    {"walk_speed": 1.7, "run_speed": 3.8, "turn": -30.0},
+]
+
+
+def _into(graph, source, target, point, frames_in=0):
+    """A creature playing ``source`` with the transition to ``target`` next, stepped until it is ``frames_in`` frames in."""
+    k = graph.path(source, target)[0]
+    state = new_state(graph, 1, seed=0, start=source, points=graph.point(point)[None])
+    state.queue[0] = [k]
+    frames = []
+    while state.active[0] != k:
+        frames.append(step(state, DT))
+    for _ in range(frames_in):
+        frames.append(step(state, DT))
+    return state, k, frames
+
+
+@pytest.mark.parametrize("point", POINTS, ids=["centre", "slow-left", "fast-right"])
+@pytest.mark.parametrize("pair", [("walk", "run"), ("run", "walk")])
+def test_duration_is_the_mean_of_the_regions_clock_lengths(cmu, pair, point):
+    state, k, _ = _into(cmu, *pair, point)
+    t = cmu.transitions[k]
+    lengths = []
+    for v, region in ((t.source, t.source_region), (t.target, t.target_region)):
+        verb = cmu.verbs[v]
+        keys = verb.keytimes(verb.point({a: point[n] for a, n in zip(verb.adverb_names, [cmu.adverb_names[c] for c in cmu.columns[v]])}))
+        ends = timewarp.clock_time(np.array(region), keys, verb.generic_keytimes)
+        lengths.append(ends[1] - ends[0])
+    assert state.length[0] == pytest.approx(0.5 * (lengths[0] + lengths[1]), rel=1e-12)
+    # β runs linearly: one frame later it has moved on by dt / duration.
+    before = state.beta[0]
+    step(state, DT)
+    assert state.beta[0] - before == pytest.approx(DT / state.length[0], rel=1e-12)
+
+
+def test_every_joint_is_the_cosine_blend_of_the_two_verbs(cmu):
+    """Mid-transition, each joint's rotation is slerp(B, A, α) of the two verbs' own poses at their generic times."""
+    point = POINTS[1]
+    state, k, _ = _into(cmu, "walk", "run", point, frames_in=3)
+    frame = step(state, DT)
+    alpha = blend_weight(state.beta[0])
+    assert 0.05 < alpha < 0.95
+    poses = []
+    for v, g in ((state.verb[0], state.g[0]), (state.into[0], state.g_into[0])):
+        verb = cmu.verbs[v]
+        p = cmu.verb_points(v, state.points)[0]
+        dofs = verb.dofs(p[None], np.array([g]))
+        poses.append(verb.encoding.decode_pose(dofs[0], frame.root[0])[0])
+    body = cmu.verbs[0].encoding.body_root
+    below = [j for j in range(cmu.skeleton.num_joints) if j != body and body in cmu.skeleton.ancestors(j)]
+    want = quat.slerp(poses[1][below], poses[0][below], np.full(len(below), alpha))
+    got = frame.rotations[0, below]
+    np.testing.assert_allclose(np.abs(np.sum(want * got, axis=-1)), 1.0, rtol=0, atol=1e-12)
+
+
+# ----- the planner and the draws -------------------------------------------------------------------
+
+
+def _chain(cmu, names, edges, likelihoods=None):
+    walk = cmu.verbs[0]
+    verbs = [replace(walk, name=n) for n in names]
+    ts = [
+        Transition(names.index(a), names.index(b), (0.0, 0.25), (0.0, 0.25), (likelihoods or {}).get((a, b), 1.0))
+        for a, b in edges
+    ]
+    return Graph.make("test", verbs, ts)
+
+
+def test_paths_are_shortest_on_a_graph_with_a_known_answer(cmu):
+    g = _chain(cmu, list("abcdef"), [("a", "b"), ("b", "c"), ("c", "d"), ("a", "e"), ("e", "d"), ("d", "a"), ("f", "a")])
+    route = [(g.verb_names[g.transitions[k].source], g.verb_names[g.transitions[k].target]) for k in g.path("a", "d")]
+    assert route == [("a", "e"), ("e", "d")]  # two transitions, not a → b → c → d
+    route = [(g.verb_names[g.transitions[k].source], g.verb_names[g.transitions[k].target]) for k in g.path("b", "e")]
+    assert route == [("b", "c"), ("c", "d"), ("d", "a"), ("a", "e")]
+    assert g.path("c", "c") == []
+    with pytest.raises(CommandRefused, match="'f' cannot be reached from 'a'"):
+        g.path("a", "f")
+    with pytest.raises(CommandRefused, match="no verb 'fly'; its verbs are a, b, c"):
+        g.path("a", "fly")
+
+
+def test_default_draws_follow_the_likelihoods(cmu):
+    likelihoods = {("a", "b"): 1.0, ("a", "c"): 2.0, ("a", "d"): 5.0}
+    g = _chain(cmu, list("abcd"), [("a", "b"), ("a", "c"), ("a", "d"), ("b", "a"), ("c", "a"), ("d", "a")], likelihoods)
+    ways = g.leaving(0)  # b, c, d, and the loop the graph adds (likelihood 1)
+    weights = np.array([g.transitions[k].likelihood for k in ways])
+    np.testing.assert_array_equal(weights, [1.0, 2.0, 5.0, 1.0])
+    rng = np.random.default_rng(7)
+    n = 6000
+    counts = np.bincount([ways.index(g.draw(0, rng)) for _ in range(n)], minlength=len(ways))
+    assert chisquare(counts, n * weights / weights.sum()).pvalue > 1e-3
+    # The creatures' own queues draw the same way, each from its own seeded generator.
+    state = new_state(g, 3000, seed=11, start="a")
+    counts = np.bincount([ways.index(q[0]) for q in state.queue], minlength=len(ways))
+    assert chisquare(counts, 3000 * weights / weights.sum()).pvalue > 1e-3
+    again = new_state(g, 3000, seed=11, start="a")
+    assert [q[0] for q in again.queue] == [q[0] for q in state.queue]
+
+
+def test_a_refused_command_changes_nothing_and_the_creature_moves_on(cmu):
+    state = new_state(cmu, 1, seed=0)
+    for _ in range(5):
+        step(state, DT)
+    queue, root = list(state.queue[0]), state.root.copy()
+    with pytest.raises(CommandRefused, match="no verb 'fly'"):
+        command(state, 0, "fly")
+    assert state.queue[0] == queue and state.goal[0] == -1
+    frame = step(state, DT)
+    assert np.all(np.isfinite(frame.rotations)) and np.linalg.norm(frame.root[0, :2] - root[0, :2]) > 0.01
+
+
+# ----- graph specs --------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory, cmu, bandai):
+    d = tmp_path_factory.mktemp("verbs")
+    for g, names in ((cmu, ["walk", "run"]), (bandai, ["idle", "bow"])):
+        for n in names:
+            save_verb(g.verbs[g.verb_index(n)], d / f"{n}.verb")
+    return d
+
+
+def _graph_file(tmp_path, built, verbs, transitions):
+    text = "".join(f'[[verbs]]\nname = "{n}"\nverb = "{built / (n + ".verb")}"\n\n' for n in verbs)
+    for t in transitions:
+        text += "[[transitions]]\n" + "".join(f"{k} = {v}\n" for k, v in t.items()) + "\n"
+    path = tmp_path / "graph.toml"
+    path.write_text(text)
+    return path
+
+
+GOOD = {"from": '"walk"', "to": '"run"', "from_region": "[0.0, 0.25]", "to_region": "[0.0, 0.25]"}
+
+
+@pytest.mark.parametrize(
+    "change, field, reason",
+    [
+        ({"to": '"swim"'}, "transitions[1].to", "unknown verb 'swim'; the graph's verbs are walk, run"),
+        ({"from_region": "[0.5, 1.2]"}, "transitions[1].from_region", "must lie in generic time [0, 1]"),
+        ({"to_region": "[0.3, 0.3]"}, "transitions[1].to_region", "is empty"),
+        ({"likelihood": "0"}, "transitions[1].likelihood", "likelihood must be a positive number"),
+        ({"blend": '"crossfade"'}, "transitions[1].blend", "must be one of cosine, inertial"),
+        ({"speed": "2"}, "transitions[1].speed", "unknown field"),
+    ],
+)
+def test_graph_spec_mistakes_name_the_file_and_field(tmp_path, built, change, field, reason):
+    path = _graph_file(tmp_path, built, ["walk", "run"], [{**GOOD, **change}])
+    with pytest.raises(GraphSpecError) as info:
+        load_graph(path)
+    assert info.value.path == str(path) and info.value.field == field
+    assert reason in str(info.value) and str(path) in str(info.value)
+
+
+def test_graph_spec_refuses_other_skeletons_and_dead_ends(tmp_path, built):
+    path = _graph_file(tmp_path, built, ["walk", "idle"], [])
+    with pytest.raises(GraphSpecError, match=r"verbs\[2\]\.verb.*'idle' is on a different skeleton from verb 'walk': it has 22 joints"):
+        load_graph(path)
+    path = _graph_file(tmp_path, built, ["idle", "bow"], [{"from": '"idle"', "to": '"bow"', "from_region": "[0.5, 1.0]", "to_region": "[0.0, 0.1]"}])
+    with pytest.raises(GraphSpecError, match="verb 'bandai-bow' has no way out|verb 'bow' has no way out"):
+        load_graph(path)
+    with pytest.raises(GraphSpecError, match="no such graph file"):
+        load_graph(tmp_path / "missing.toml")
+
+
+# ----- transitions on real capture -------------------------------------------------------------------
+
+
+def _angular_speed(rotations):
+    """Largest joint angular speed per frame gap, ``(F − 1,)`` rad/s, of local rotations ``(F, J, 4)``."""
+    rel = quat.mul(quat.inv(rotations[:-1]), rotations[1:])
+    rel = np.where(rel[..., 3:] < 0.0, -rel, rel)
+    return np.linalg.norm(quat.log(rel), axis=-1).max(axis=-1) / DT
+
+
+def _own_speed(graph, v, point):
+    """The verb's own largest joint angular speed at ``point`` over one cycle (or its whole motion)."""
+    verb = graph.verbs[v]
+    p = graph.verb_points(v, graph.point(point)[None])[0]
+    clip, _ = verb.synthesize(p, cycles=2 if verb.cyclic else None, fps=30)
+    return _angular_speed(clip.rotations).max()
+
+
+def _points(graph, t):
+    """Three graph adverb points for transition ``t``: the defaults, and every adverb the two verbs take at the
+    first and third quartiles of their examples."""
+    out = [dict(zip(graph.adverb_names, graph.defaults))]
+    for q in (0.25, 0.75):
+        p = dict(out[0])
+        for v in (t.source, t.target):
+            verb = graph.verbs[v]
+            for i, c in enumerate(graph.columns[v]):
+                p[graph.adverb_names[c]] = float(np.quantile(verb.points[:, i], q))
+        out.append(p)
+    return out
+
+
+def _run(graph, k, point, interrupt=False):
+    """Play transition ``k`` at ``point`` (interrupted halfway, back to its source, when asked): frames, planted
+    clip, report, the frames of the window measured, and the verbs involved."""
+    t = graph.transitions[k]
+    state = new_state(graph, 1, seed=0, start=t.source, points=graph.point(point)[None])
+    source = graph.verbs[t.source]
+    lead = t.source_region[0] - 0.15
+    state.g[0] = lead % 1.0 if source.cyclic else max(lead, 0.0)
+    if t.source == t.target:
+        state.queue[0] = [k]
+    else:  # the planner's path, a loop first when the region has gone by in this cycle
+        command(state, 0, graph.verb_names[t.target])
+        assert k in state.queue[0]
+    feet = planter(graph, 1)
+    rot, trans, free, modes, window, involved = [], [], [], [], [], {t.source, t.target}
+    done, ended = None, False
+    for f in range(2000):
+        frame = step(state, DT)
+        r, tr, _ = plant(feet, frame, DT, state.alone)
+        rot.append(r[0]), trans.append(tr[0]), free.append(frame), modes.append(feet.mode[0] == BALL)
+        if (state.active[0] == k and not ended) or (done is not None and f < done):
+            window.append(f)
+            involved |= {int(state.verb[0])} | ({int(state.into[0])} if state.active[0] >= 0 else set())
+        ended |= bool(window) and state.active[0] != k
+        if interrupt and state.active[0] == k and state.beta[0] >= 0.5 and done is None:
+            command(state, 0, graph.verb_names[t.source])
+            done = f + 45
+        if window and f > window[-1] + 15 and (not interrupt or done is not None and f > done):
+            break
+    assert window, "the transition never started"
+    clip = Clip(graph.skeleton, np.array(rot), np.array(trans), 30.0)
+    return free, clip, np.array(window), involved, np.array(modes)
+
+
+@pytest.mark.parametrize("name", ["cmu", "bandai"])
+@pytest.mark.parametrize("interrupt", [False, True], ids=["whole", "interrupted"])
+def test_every_transition_is_continuous_smooth_and_keeps_its_feet(name, interrupt, cmu, bandai):
+    graph = {"cmu": cmu, "bandai": bandai}[name]
+    body = graph.verbs[0].encoding.body_root
+    tips = effector_joints(next(v for v in graph.verbs if v.holds))
+    failures = []
+    for k, t in enumerate(graph.transitions):
+        if interrupt and not t.interruptible:
+            continue
+        for point in _points(graph, t):
+            free, clip, window, involved, planted = _run(graph, k, point, interrupt)
+            what = f"{graph.verb_names[t.source]} → {graph.verb_names[t.target]} at {point}"
+            # The root path is continuous: no step longer than 1.5 × the speed it moves at (and 1 mm).
+            hips = clip.global_positions()[:, body][:, [0, 2]]
+            steps = np.linalg.norm(np.diff(hips, axis=0), axis=-1)[window[window > 0] - 1]
+            speed = np.array([np.hypot(*free[f].velocity[0, :2]) for f in window[window > 0]])
+            prev = np.array([np.hypot(*free[f - 1].velocity[0, :2]) for f in window[window > 0]])
+            if np.any(steps > 1.5 * np.maximum(speed, prev) * DT + 1e-3):
+                failures.append(f"{what}: a root step of {steps.max() * 1000:.1f} mm")
+            # Joints turn no faster than 1.5 × the faster verb's own fastest.
+            rotations = np.array([f.rotations[0] for f in free])
+            fastest = _angular_speed(rotations)[window[window > 0] - 1].max()
+            own = max(_own_speed(graph, v, point) for v in involved)
+            if fastest > 1.5 * own:
+                failures.append(f"{what}: joints at {fastest:.1f} rad/s, the verbs' own fastest {own:.1f}")
+            # Planted toes stay put (1 cm) and never go below the floor (5 mm, the planting tests' bound).
+            toes = clip.global_positions()[:, tips]
+            for i in range(len(tips)):
+                spans = [(a, b) for a, b in _runs(planted[:, i]) if b > window[0] and a <= window[-1]]
+                drift = planted_drift(toes[:, i], spans)
+                if len(drift) and drift.max() > 0.01:
+                    failures.append(f"{what}: toe {graph.skeleton.names[tips[i]]} drifts {drift.max() * 1000:.1f} mm while held")
+            verb = next(v for v in graph.verbs if v.holds)
+            heights = np.array([h.height for h in verb.holds])
+            low = (toes[window, :, 1] - heights).min()
+            if low < -0.005:
+                failures.append(f"{what}: a toe {-low * 1000:.1f} mm below the floor")
+    assert not failures, "\n".join(failures)
+
+
+def _runs(mask):
+    from adverbs.motion.contacts import runs
+
+    return runs(np.asarray(mask))
+
+
+# ----- circles, and a long random walk ---------------------------------------------------------------
+
+
+@pytest.mark.parametrize("speed, turn", [(1.3, 30.0), (1.0, -45.0), (1.2, 60.0)])
+def test_a_walk_with_a_constant_turn_traces_its_circle(cmu, speed, turn):
+    walk = cmu.verbs[cmu.verb_index("walk")]
+    g = Graph.make("walk", [walk], [])  # the walk and its own loop
+    perf = perform(g, [], seconds=20.0, adverbs={"walk_speed": speed, "turn": turn})
+    xz = perf.free.global_positions()[30:, walk.encoding.body_root][:, [0, 2]]
+    a = np.c_[2 * xz, np.ones(len(xz))]
+    (cx, cz, c), *_ = np.linalg.lstsq(a, np.sum(xz**2, axis=1), rcond=None)
+    radius = np.sqrt(c + cx**2 + cz**2)
+    asked = speed / np.radians(abs(turn))
+    assert abs(radius / asked - 1.0) <= 0.05, (radius, asked)
+    # It goes round, not back and forth: the heading turns the way the adverb says, loop after loop.
+    assert np.sign(perf.state.root[0, 2]) == np.sign(turn) and abs(perf.state.root[0, 2]) > np.radians(abs(turn)) * 15
+
+
+def test_ten_minutes_of_random_commands_through_the_bandai_graph(bandai):
+    """A seeded 10-minute random walk: finite, rigid, feet on the floor, reproducible; latency reported."""
+    rng = np.random.default_rng(2026)
+    times = np.cumsum(rng.uniform(2.0, 8.0, 200))
+    cues = [Cue(float(t), str(rng.choice(bandai.verb_names))) for t in times[times < 590.0]]
+    for t in rng.uniform(0, 590, 40):  # and moods changing
+        cues.append(Cue(float(t), adverbs={"valence": float(rng.uniform(-1, 1)), "energy": float(rng.uniform(-1, 1))}))
+    perf = perform(bandai, cues, seconds=600.0, seed=5)
+    pos = perf.planted.global_positions()
+    assert np.all(np.isfinite(pos)) and np.all(np.isfinite(perf.planted.rotations))
+    skel, enc = bandai.skeleton, bandai.verbs[0].encoding
+    moving = {enc.body_root, *(int(j) for v in bandai.verbs for j in v.encoding.translated)}  # joints that translate
+    bones = np.array([j for j in range(skel.num_joints) if skel.parents[j] >= 0 and j not in moving])
+    lengths = np.linalg.norm(pos[:, bones] - pos[:, skel.parents[bones]], axis=-1)
+    np.testing.assert_allclose(lengths, np.broadcast_to(np.linalg.norm(skel.offsets[bones], axis=-1), lengths.shape), rtol=0, atol=1e-6)
+    verb = next(v for v in bandai.verbs if v.holds)
+    metrics = measure_feet(verb, perf.planted, perf.report, None, perf.free)
+    assert metrics.lowest >= -0.005, metrics.line()
+    assert np.median(metrics.toe_drift) <= 0.001 and metrics.toe_drift.max() <= 0.01, metrics.line()
+    played = {bandai.verb_names[v] for v in perf.verb}
+    assert played == set(bandai.verb_names), played
+    latency = np.array([x for _, _, x in perf.state.latencies])
+    assert len(latency) > 50 and np.all(latency >= 0) and np.all(np.isfinite(latency))
+    print(f"\ncommand latency over {len(latency)} commands: median {np.median(latency):.2f} s, 95th percentile {np.percentile(latency, 95):.2f} s")
+    # The same seed, the same motion: the first minute again, frame for frame.
+    again = perform(bandai, [c for c in cues if c.time < 60.0], seconds=60.0, seed=5)
+    np.testing.assert_array_equal(again.planted.rotations, perf.planted.rotations[:1800])
+    np.testing.assert_array_equal(again.planted.translations, perf.planted.translations[:1800])
+
+
+def test_a_bad_adverb_in_a_script_is_refused_and_the_creature_carries_on(cmu):
+    perf = perform(cmu, [Cue(0.5, "swim"), Cue(1.0, adverbs={"turn": float("nan")}), Cue(1.5, adverbs={"colour": 1.0})], seconds=3.0)
+    assert [t for t, _ in perf.refused] == [0.5, 1.0, 1.5]
+    assert "no verb 'swim'" in perf.refused[0][1] and "'turn' must be a finite number" in perf.refused[1][1]
+    assert "no adverb 'colour'" in perf.refused[2][1]
+    assert np.all(np.isfinite(perf.planted.rotations)) and perf.planted.num_frames == 90
+
+
+def test_graph_adverbs_must_be_finite(cmu):
+    with pytest.raises(AdverbsError, match="'turn' must be a finite number"):
+        new_state(cmu, 1, points=np.array([[1.3, np.nan, 3.0]]))
