@@ -34,6 +34,7 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py
 	$(BIN)/python benchmarks/verbs.py
 	$(BIN)/python benchmarks/feet.py
+	$(BIN)/python benchmarks/graph.py
 
 clean:
 	rm -rf $(VENV) out .pytest_cache

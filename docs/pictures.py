@@ -1,6 +1,6 @@
-"""The README's picture: a planted walk seen from the side, and what its toes do.
+"""The README's pictures: a planted walk seen from the side, and what its toes do; a creature through a verb graph.
 
-    .venv/bin/python docs/pictures.py        (writes docs/planted_walk.png)
+    .venv/bin/python docs/pictures.py        (writes docs/planted_walk.png and docs/graph_play.png)
 
 Top: the CMU walk at an adverb point between its examples (1.45 m/s), three cycles, every third frame,
 planted on flat ground; left limbs blue, right red. Bottom: each toe joint's height over the floor plus
@@ -18,6 +18,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from adverbs.graph import Cue, load_graph, perform  # noqa: E402
 from adverbs.verb.fit import build_from_spec  # noqa: E402
 from adverbs.verb.planting import effector_joints, plant_feet  # noqa: E402
 
@@ -64,5 +65,58 @@ def main() -> None:
     fig.savefig(ROOT / "docs" / "planted_walk.png", dpi=90)
 
 
+def graph_play() -> None:
+    """One creature through the Bandai graph on command: from above (its path, coloured by what plays), from
+    the side (every fourth frame), and its toes' heights with the phases they are held."""
+    graph = load_graph(ROOT / "graphs" / "bandai.toml")
+    script = [Cue(0.5, "walk"), Cue(4.0, "run"), Cue(6.5, "walk"), Cue(8.5, "idle"), Cue(10.0, "bye")]
+    perf = perform(graph, script, seconds=16.0, seed=3, adverbs={"valence": 0.4, "energy": 0.3, "turn": 20.0})
+    pos = perf.planted.global_positions()
+    body = graph.verbs[0].encoding.body_root
+    colours = {name: f"C{i}" for i, name in enumerate(graph.verb_names)}
+    blend = "0.55"
+    which = [blend if "→" in w else colours[w.split(" at ")[0]] for w in perf.playing]
+    fig, (top, side, toes) = plt.subplots(3, 1, figsize=(12, 10), gridspec_kw={"height_ratios": [1.2, 1, 0.8]})
+    for f in range(1, len(pos)):
+        top.plot(pos[f - 1 : f + 1, body, 0], pos[f - 1 : f + 1, body, 2], color=which[f], lw=2)
+    for name in dict.fromkeys(w.split(" at ")[0] for w in perf.playing if "→" not in w):
+        top.plot([], [], color=colours[name], lw=2, label=name)
+    top.plot([], [], color=blend, lw=2, label="transition")
+    for c in script:
+        f = int(c.time * 30)
+        top.annotate(f"{c.time:g} s: {c.verb}", pos[f, body, [0, 2]], fontsize=8, xytext=(4, 4), textcoords="offset points")
+    top.set_aspect("equal")
+    top.set_xlabel("x (m)")
+    top.set_ylabel("z (m)")
+    top.legend(fontsize=8, loc="best")
+    top.set_title("Bandai graph, one creature on command (valence 0.4, turning 20 deg/s): the hips' path from above")
+    parents = graph.skeleton.parents
+    along = np.cumsum(np.r_[0.0, np.linalg.norm(np.diff(pos[:, body, [0, 2]], axis=0), axis=1)])
+    for f in range(0, len(pos), 4):
+        shift = along[f] - pos[f, body, 2]  # unrolled along the path, so turns do not overlap
+        for j, parent in enumerate(parents):
+            if parent >= 0 and j != body:
+                side.plot(pos[f, [parent, j], 2] + shift, pos[f, [parent, j], 1], color=which[f], lw=0.6)
+    side.axhline(0.0, color="k", lw=1)
+    side.set_aspect("equal")
+    side.set_xlabel("distance along the path (m)")
+    side.set_ylabel("up (m)")
+    side.set_title("from the side, every fourth frame (grey: blending two verbs)")
+    verb = next(v for v in graph.verbs if v.holds)
+    heights = [h.height for h in verb.holds]
+    for i, (j, color) in enumerate(zip(effector_joints(verb), ("tab:blue", "tab:red"))):
+        toes.plot(np.arange(len(pos)) / 30.0, 100 * (pos[:, j, 1] - heights[i]), color=color, label=graph.skeleton.names[j])
+        for a, b in perf.report.phases[i]:
+            toes.axvspan(a / 30.0, b / 30.0, ymin=0.02 + 0.05 * i, ymax=0.06 + 0.05 * i, color=color)
+    toes.axhline(0.0, color="k", lw=0.6)
+    toes.set_xlabel("seconds")
+    toes.set_ylabel("toe above floor + contact (cm)")
+    toes.legend(fontsize=8, loc="upper right")
+    toes.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(ROOT / "docs" / "graph_play.png", dpi=80)
+
+
 if __name__ == "__main__":
     main()
+    graph_play()
