@@ -109,3 +109,24 @@ def test_floor_needs_planted_feet_and_evaluate_handles_two_examples(tmp_path):
     r = run("evaluate", tmp_path / "two.verb")
     assert r.returncode == 0, r.stderr
     assert "| ours | n/a | n/a |" in r.stdout and "| nearest |" in r.stdout
+
+
+def test_a_verb_of_one_example_builds_plays_it_and_refuses_leave_one_out(tmp_path):
+    spec = tmp_path / "bow.toml"
+    bow = SPECS.parent / "data/bandai/dataset-1_bow_normal_001.bvh"
+    spec.write_text(
+        f'name = "bow"\ncyclic = false\nnum_cp = 32\n[[examples]]\nname = "bow"\nfile = "{bow}"\n'
+        "frames = [0, 138]\nkeytimes = [0.0, 4.5666667]\n"
+    )
+    verb = tmp_path / "bow.verb"
+    r = run("build", spec, "-o", verb)
+    assert r.returncode == 0 and "1 examples, 0 adverbs" in r.stdout, r.stderr
+    r = run("synth", verb, "-o", tmp_path / "bow.bvh")
+    assert r.returncode == 0 and "bow at its one example; 138 frames" in r.stdout, r.stderr
+    r = run("synth", verb, "--no-ik", "-o", tmp_path / "free.bvh")
+    played, source = read_bvh(tmp_path / "free.bvh").rotations[:, 2:], read_bvh(bow).rotations[:138, 2:]
+    # It plays its example: every joint below the hips turned as the take turns it, within the fit's error.
+    angle = 2 * np.degrees(np.arccos(np.clip(np.abs(np.sum(played * source, axis=-1)), 0, 1)))
+    assert np.median(angle) < 0.5 and angle.max() < 5.0, (np.median(angle), angle.max())
+    r = run("evaluate", verb)
+    assert r.returncode == 1 and "has 1 example(s) and 0 adverb(s)" in r.stderr

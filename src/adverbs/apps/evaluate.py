@@ -202,10 +202,10 @@ def predict(
 def evaluate(verb: Verb) -> Evaluation:
     """Leave-one-out comparison and obedience for ``verb`` (see the module docstring)."""
     e = len(verb.examples)
-    if e < 3 or not verb.adverbs:
+    if e < 2 or not verb.adverbs:
         raise AdverbsError(
             f"verb {verb.name!r} has {e} example(s) and {len(verb.adverbs)} adverb(s): leaving one example out "
-            "to predict it needs at least three examples over at least one adverb"
+            "to predict it from the others needs at least two examples over at least one adverb"
         )
     measured = _measured(verb)
     goal_axes = [i for i in measured if verb.adverbs[i].measure["kind"] == "joint_position"]

@@ -20,8 +20,13 @@ and a generic time ``g`` in it — or is in a transition from one instance (A) t
 * **Inertial blend, and interruption.** An inertial transition plays B at once; the difference
   between the pose shown and B's (and between their velocities) becomes an offset that decays as a
   critically damped spring (half-life ``duration · INERTIAL_HALFLIFE``). A command during an
-  interruptible transition does the same from the current blend: B plays on alone, the offset
-  carries the pose and velocities that were shown, and the new path starts from B.
+  interruptible transition: back to the cycle being left, the blend turns back (both verbs play on,
+  the weight climbs back by the same cosine law); otherwise B plays on alone from the pose shown (an
+  offset, half-life at least ``INTERRUPT_HALFLIFE``) and the new path starts from B — at once, and
+  inertially, when B is a one-shot verb whose way on is already open.
+* **Feet.** A foot both verbs hold stays held; blending two stances would slide it, so the body is
+  carried by the held feet's slip instead (:func:`_keep_feet`). :class:`GraphFeet` re-places a foot a
+  verb playing alone has somewhere else (``REPLANT``).
 * **Cycles.** A cyclic verb instance plays one cycle; its loop into itself is a transition like any
   other. Where a target region ends at the end of a cyclic verb's cycle, B plays that region as the
   end of the *previous* cycle (the seam ``d(1) − d(0)`` taken off), so it goes on into its next cycle
