@@ -28,7 +28,7 @@ demo: $(STAMP)
 	$(BIN)/adverbs graph graphs/bandai.toml --play "1:walk,5:turn=30,8:run,12:walk,15:idle,17:bow,25:reach" --seconds 30 --adverb valence=0.5 -o out/bandai_graph.bvh
 
 test: $(STAMP)
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n auto
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py
