@@ -51,6 +51,7 @@ from ..kinematics import quat
 from ..kinematics.fk import forward_kinematics
 from ..verb._sampling_kernel import GENERIC, VELOCITIES
 from ..kinematics.floor import Floor
+from ..motion.encoding import advance_root
 from ..verb.planting import BALL, FREE, FootPlanter, effector_joints, hold_modes
 from ..verb.sampling import SamplingState, run_kernel
 from .structure import CommandRefused, Graph
@@ -286,10 +287,7 @@ class Frame:
 
 def feet(graph: Graph) -> list[int]:
     """The effector joints any verb of the graph holds, in the order the first such verb lists them."""
-    out: list[int] = []
-    for v in graph.verbs:
-        out += [j for j in effector_joints(v) if j not in out]
-    return out
+    return list(graph.feet)
 
 
 def _sampling(state: GraphState, v: int, slot: int) -> SamplingState:
@@ -304,26 +302,26 @@ def _sampling(state: GraphState, v: int, slot: int) -> SamplingState:
     return s
 
 
-def _clock(state: GraphState, verbs: np.ndarray, g: np.ndarray, slot: int, rows: np.ndarray) -> np.ndarray:
-    """Clock times ``(n,)`` of generic times ``g (n,)`` of the creatures ``rows`` in their verbs ``verbs[rows]`` (slot A or B)."""
+def _warp(state: GraphState, verbs: np.ndarray, x: np.ndarray, slot: int, rows: np.ndarray, to_clock: bool) -> np.ndarray:
+    """``x (n,)`` of the creatures ``rows`` in their verbs ``verbs[rows]`` (slot A or B), generic times turned to
+    clock times (``to_clock``) or back, under each creature's keytimes."""
     out = np.zeros(len(rows))
+    convert = clock_of if to_clock else generic_of
     for v in np.unique(verbs[rows]):
         sel = verbs[rows] == v
-        verb = state.graph.verbs[int(v)]
         keys = _sampling(state, int(v), slot).keytimes[rows[sel]]
-        out[sel] = clock_of(g[sel], keys, verb.generic_keytimes)
+        out[sel] = convert(x[sel], keys, state.graph.verbs[int(v)].generic_keytimes)
     return out
+
+
+def _clock(state: GraphState, verbs: np.ndarray, g: np.ndarray, slot: int, rows: np.ndarray) -> np.ndarray:
+    """Clock times ``(n,)`` of generic times ``g (n,)``; see :func:`_warp`."""
+    return _warp(state, verbs, g, slot, rows, True)
 
 
 def _generic(state: GraphState, verbs: np.ndarray, clock: np.ndarray, slot: int, rows: np.ndarray) -> np.ndarray:
     """Generic times ``(n,)`` of clock times ``clock (n,)``: the inverse of :func:`_clock`."""
-    out = np.zeros(len(rows))
-    for v in np.unique(verbs[rows]):
-        sel = verbs[rows] == v
-        verb = state.graph.verbs[int(v)]
-        keys = _sampling(state, int(v), slot).keytimes[rows[sel]]
-        out[sel] = generic_of(clock[sel], keys, verb.generic_keytimes)
-    return out
+    return _warp(state, verbs, clock, slot, rows, False)
 
 
 def _start(state: GraphState, c: int, late: float, inertial: bool = False) -> None:
@@ -509,14 +507,6 @@ def _decode(state: GraphState, base: _Base, root: np.ndarray) -> tuple[np.ndarra
     return rot, trans
 
 
-def _integrate(root: np.ndarray, vel: np.ndarray, dt: float) -> np.ndarray:
-    """Roots ``(C, 3)`` moved on by ``dt`` at velocities ``(C, 3)``: the heading turns by ``turn · dt`` and the body
-    travels in the frame of the heading halfway through the step (as :meth:`DofEncoding.advance_root` does)."""
-    h1 = root[:, 2] + vel[:, 2] * dt
-    step = quat.rotate(quat.about_y(0.5 * (root[:, 2] + h1)), np.stack([vel[:, 0], np.zeros(len(vel)), vel[:, 1]], axis=1)) * dt
-    return np.stack([root[:, 0] + step[:, 0], root[:, 1] + step[:, 2], h1], axis=1)
-
-
 def _back(state: GraphState, rows: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
     """Generic times of A and B ``dt`` seconds ago by their clocks, for the creatures ``rows`` (others: now)."""
     g_a, g_b = state.g.copy(), state.g_into.copy()
@@ -558,7 +548,7 @@ def step(state: GraphState, dt: float) -> Frame:
     live = np.flatnonzero(state.offset_since < 12.0 * state.offset_halflife)
     t, h = state.offset_since[live, None], state.offset_halflife[live, None]
     vel[live] += _spring(state.offset_root[live], 0.0, t, h)
-    new_root = _integrate(state.root, vel, dt)
+    new_root = advance_root(state.root, vel, dt)
     rot, trans = _decode(state, base, new_root)
     if before is not None:
         rot0, trans0 = _decode(state, before, state.root)
@@ -626,7 +616,7 @@ def _keep_feet(
     if not len(rows):
         return root
     graph = state.graph
-    tips = feet(graph)
+    tips = list(graph.feet)
     now = forward_kinematics(graph.skeleton.parents, rot[rows], trans[rows])[0][:, tips]
     was = forward_kinematics(graph.skeleton.parents, state.shown[0][rows], state.shown[1][rows])[0][:, tips]
     slip = np.einsum("cl,clk->ck", w, was - now) / w.sum(axis=1, keepdims=True)
@@ -635,18 +625,8 @@ def _keep_feet(
     root[rows, 0] += slip[:, 0]
     root[rows, 1] += slip[:, 2]
     body = graph.verbs[0].encoding.body_root
-    trans[rows, body] += quat.rotate(_inverse_above(graph), slip)
+    trans[rows, body] += quat.rotate(graph.inverse_above_body, slip)
     return root
-
-
-def _inverse_above(graph: Graph) -> np.ndarray:
-    """The inverse of the rest rotation of the joint above the body root (identity when it has none)."""
-    skel = graph.skeleton
-    above = skel.ancestors(graph.verbs[0].encoding.body_root)[1:]
-    if not above:
-        return quat.identity()
-    _, arot = forward_kinematics(skel.parents, quat.identity((skel.num_joints,)), graph.verbs[0].encoding.base_translations)
-    return quat.inv(arot[above[0]])
 
 
 def hold_phases(state: GraphState) -> tuple[np.ndarray, np.ndarray]:
@@ -657,7 +637,7 @@ def hold_phases(state: GraphState) -> tuple[np.ndarray, np.ndarray]:
     both verbs hold it (released by either, released) and has rolled as far as the further of the two.
     """
     graph = state.graph
-    tips = feet(graph)
+    tips = list(graph.feet)
     c = state.creatures
     held = np.zeros((c, len(tips)), dtype=bool)
     roll = np.zeros((c, len(tips)))

@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import sys
 import time
-import tomllib
 import warnings
 from dataclasses import replace
 from pathlib import Path
@@ -41,8 +40,9 @@ from typing import Any
 
 from ..errors import AdverbsError, AdverbsWarning
 from ..verb.fit import build_from_spec
+from ..verb.spec import read_toml
 from ..verb.store import load_verb
-from .structure import BLENDS, Graph, Transition, check_transition
+from .structure import BLENDS, Graph, Transition, GraphError, check_transition
 
 _TOP = {"name", "description", "start", "adverbs", "verbs", "transitions"}
 _VERB = {"name", "spec", "verb", "adverbs", "clamp", "loop_likelihood", "description"}
@@ -56,19 +56,6 @@ class GraphSpecError(AdverbsError):
         self.path, self.field, self.reason = str(path), field, reason
         where = str(path) if field is None else f"{path}: field '{field}'"
         super().__init__(f"{where}: {reason}")
-
-
-def _read(path: Path) -> dict[str, Any]:
-    try:
-        return tomllib.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise GraphSpecError(path, "no such graph file") from None
-    except UnicodeDecodeError:
-        raise GraphSpecError(path, "not a text file (UTF-8)") from None
-    except OSError as e:
-        raise GraphSpecError(path, f"cannot read: {e.strerror}") from None
-    except tomllib.TOMLDecodeError as e:
-        raise GraphSpecError(path, f"not valid TOML: {e}") from None
 
 
 def _unknown(path: Path, table: dict, allowed: set[str], where: str | None) -> None:
@@ -87,7 +74,7 @@ def _number(path: Path, x: Any, field: str) -> float:
 def load_graph(path: str | Path, progress: bool = False) -> Graph:
     """Read a graph spec, build (or read) its verbs and check the graph; ``progress`` prints each verb as it is built."""
     path = Path(path)
-    raw = _read(path)
+    raw = read_toml(path, "graph", GraphSpecError)
     _unknown(path, raw, _TOP, None)
     entries = raw.get("verbs")
     if not isinstance(entries, list) or not entries:
@@ -179,9 +166,8 @@ def load_graph(path: str | Path, progress: bool = False) -> Graph:
         t = Transition(a, b, regions[0], regions[1], _number(path, entry.get("likelihood", 1.0), f"{where}.likelihood"), blend, interruptible)
         try:
             check_transition(t, verbs)
-        except AdverbsError as e:
-            field = next((k for k in ("from_region", "to_region", "likelihood") if k in str(e)), None)
-            raise GraphSpecError(path, str(e), f"{where}.{field}" if field else where) from None
+        except GraphError as e:
+            raise GraphSpecError(path, str(e), f"{where}.{e.field}") from None
         transitions.append(t)
     defaults = raw.get("adverbs", {})
     if not isinstance(defaults, dict):
@@ -191,6 +177,5 @@ def load_graph(path: str | Path, progress: bool = False) -> Graph:
     start = verb_named(raw["start"], "start") if "start" in raw else 0
     try:
         return Graph.make(str(raw.get("name", path.stem)), verbs, transitions, defaults, start, loops, str(path), clamps)
-    except AdverbsError as e:
-        field = "adverbs" if "default for adverb" in str(e) else "transitions" if "no way out" in str(e) else None
-        raise GraphSpecError(path, str(e), field) from None
+    except GraphError as e:
+        raise GraphSpecError(path, str(e), e.field) from None

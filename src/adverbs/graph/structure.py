@@ -18,10 +18,14 @@ from __future__ import annotations
 from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
 from ..errors import AdverbsError
+from ..kinematics import quat
+from ..kinematics.fk import forward_kinematics
+from ..verb.planting import effector_joints
 from ..verb.tables import Verb
 
 BLENDS = ("cosine", "inertial")
@@ -47,6 +51,16 @@ class Transition:
     blend: str = "cosine"
     interruptible: bool = True
     added: bool = False
+
+
+class GraphError(AdverbsError):
+    """A graph that cannot be made; ``field`` names what is wrong: a transition's (``from_region``,
+    ``to_region``, ``likelihood``, ``blend``, ``from``, ``to``) or the graph's (``verbs``, ``adverbs``,
+    ``transitions``, ``start``)."""
+
+    def __init__(self, reason: str, field: str | None = None):
+        self.field = field
+        super().__init__(reason)
 
 
 class CommandRefused(AdverbsError):
@@ -102,14 +116,14 @@ class Graph:
         """Check and assemble a graph; a cyclic verb without a transition into itself gets one (``loop_likelihoods``)."""
         verbs = tuple(verbs)
         if not verbs:
-            raise AdverbsError(f"graph {name!r} has no verbs")
+            raise GraphError(f"graph {name!r} has no verbs", "verbs")
         names = [v.name for v in verbs]
         for i, v in enumerate(verbs):
             if names.index(v.name) != i:
-                raise AdverbsError(f"graph {name!r}: two verbs are named {v.name!r}")
+                raise GraphError(f"graph {name!r}: two verbs are named {v.name!r}", "verbs")
             why = verbs[0].skeleton.structure_difference(v.skeleton)
             if why is not None:
-                raise AdverbsError(f"graph {name!r}: verb {v.name!r} is on a different skeleton from {verbs[0].name!r}: {why}")
+                raise GraphError(f"graph {name!r}: verb {v.name!r} is on a different skeleton from {verbs[0].name!r}: {why}", "verbs")
         adverb_names: list[str] = []
         for v in verbs:
             adverb_names += [a for a in v.adverb_names if a not in adverb_names]
@@ -120,7 +134,7 @@ class Graph:
             values[k] = float(np.mean(np.concatenate(takers)))
         for a, x in (defaults or {}).items():
             if a not in adverb_names:
-                raise AdverbsError(f"graph {name!r}: default for adverb {a!r}, which no verb takes ({', '.join(adverb_names) or 'none'})")
+                raise GraphError(f"graph {name!r}: default for adverb {a!r}, which no verb takes ({', '.join(adverb_names) or 'none'})", "adverbs")
             values[adverb_names.index(a)] = float(x)
         edges = list(transitions)
         for t in edges:
@@ -132,9 +146,9 @@ class Graph:
                 edges.append(Transition(i, i, region, region, float(loops[i]), "cosine", True, True))
         for i, v in enumerate(verbs):
             if not any(t.source == i for t in edges):
-                raise AdverbsError(f"graph {name!r}: verb {v.name!r} has no way out (no transition leaves it)")
+                raise GraphError(f"graph {name!r}: verb {v.name!r} has no way out (no transition leaves it)", "transitions")
         if not 0 <= start < len(verbs):
-            raise AdverbsError(f"graph {name!r}: start verb {start} is not one of its {len(verbs)} verbs")
+            raise GraphError(f"graph {name!r}: start verb {start} is not one of its {len(verbs)} verbs", "start")
         values.setflags(write=False)
         clamped = tuple(bool(x) for x in (clamped if clamped is not None else [False] * len(verbs)))
         return cls(name, verbs, tuple(adverb_names), values, columns, tuple(edges), int(start), source, clamped)
@@ -154,6 +168,24 @@ class Graph:
     @property
     def skeleton(self):
         return self.verbs[0].skeleton
+
+    @cached_property
+    def feet(self) -> tuple[int, ...]:
+        """The effector joints any verb holds, in the order the first such verb lists them."""
+        out: list[int] = []
+        for v in self.verbs:
+            out += [j for j in effector_joints(v) if j not in out]
+        return tuple(out)
+
+    @cached_property
+    def inverse_above_body(self) -> np.ndarray:
+        """The inverse of the rest rotation of the joint above the body root ``(4,)`` (identity when it has none)."""
+        skel, enc = self.skeleton, self.verbs[0].encoding
+        above = skel.ancestors(enc.body_root)[1:]
+        if not above:
+            return quat.identity()
+        _, rest = forward_kinematics(skel.parents, quat.identity((skel.num_joints,)), enc.base_translations)
+        return quat.inv(rest[above[0]])
 
     def verb_index(self, name: str | int) -> int:
         """The index of verb ``name``; an unknown one raises :class:`CommandRefused` naming the verbs there are."""
@@ -286,17 +318,17 @@ class Graph:
 
 def check_transition(t: Transition, verbs: Sequence[Verb]) -> None:
     """Raise an error naming what is wrong with ``t``: verbs, regions, likelihood, blend."""
-    for k in (t.source, t.target):
+    for field, k in (("from", t.source), ("to", t.target)):
         if not 0 <= k < len(verbs):
-            raise AdverbsError(f"transition {t.source} → {t.target}: no verb {k}")
+            raise GraphError(f"transition {t.source} → {t.target}: no verb {k}", field)
     what = f"transition {verbs[t.source].name!r} → {verbs[t.target].name!r}"
     for field, region in (("from_region", t.source_region), ("to_region", t.target_region)):
         a, b = region
         if not (np.isfinite(a) and np.isfinite(b) and 0.0 <= a <= 1.0 and 0.0 <= b <= 1.0):
-            raise AdverbsError(f"{what}: {field} {[a, b]} must lie in generic time [0, 1]")
+            raise GraphError(f"{what}: {field} {[a, b]} must lie in generic time [0, 1]", field)
         if not a < b:
-            raise AdverbsError(f"{what}: {field} {[a, b]} is empty: its start must come before its end")
+            raise GraphError(f"{what}: {field} {[a, b]} is empty: its start must come before its end", field)
     if not (np.isfinite(t.likelihood) and t.likelihood > 0):
-        raise AdverbsError(f"{what}: likelihood must be a positive number, got {t.likelihood}")
+        raise GraphError(f"{what}: likelihood must be a positive number, got {t.likelihood}", "likelihood")
     if t.blend not in BLENDS:
-        raise AdverbsError(f"{what}: blend must be one of {', '.join(BLENDS)}, got {t.blend!r}")
+        raise GraphError(f"{what}: blend must be one of {', '.join(BLENDS)}, got {t.blend!r}", "blend")

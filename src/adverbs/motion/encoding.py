@@ -249,13 +249,7 @@ class DofEncoding:
         heading halfway through the step (the midpoint rule). A run-time loop calls this once per
         frame, after it has blended or changed the velocities it integrates.
         """
-        root = np.asarray(root, dtype=float)
-        dofs = self._checked(dofs, 1)
-        h0 = root[..., 2]
-        h1 = h0 + dofs[..., 2] * dt
-        v = np.stack([dofs[..., 0], np.zeros_like(dofs[..., 0]), dofs[..., 1]], axis=-1)
-        step = quat.rotate(quat.about_y(0.5 * (h0 + h1)), v) * np.asarray(dt, dtype=float)[..., None]
-        return np.stack([root[..., 0] + step[..., 0], root[..., 1] + step[..., 2], h1], axis=-1)
+        return advance_root(root, self._checked(dofs, 1)[..., : len(ROOT_COLUMNS) - 1], dt)
 
     def decode_pose(self, dofs: np.ndarray, root: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Local rotations ``(..., J, 4)`` and translations ``(..., J, 3)`` of poses ``dofs (..., D)``.
@@ -323,6 +317,19 @@ class DofEncoding:
         for k, j in enumerate(joints):
             out[..., k, :] = quat.from_euler(_euler_order(self.skeleton, j), d[..., k, :])
         return out
+
+
+def advance_root(root: np.ndarray, velocity: np.ndarray, dt: float | np.ndarray) -> np.ndarray:
+    """Roots ``(..., 3)`` = ``(x, z, heading)`` moved on by ``dt`` at ``velocity (..., 3)`` = (``root.vx``, ``root.vz``,
+    ``root.turn``): the heading turns by ``turn · dt``, the body travels in the frame of the heading halfway
+    through the step (the midpoint rule). :meth:`DofEncoding.advance_root` is this on a pose's root columns."""
+    root = np.asarray(root, dtype=float)
+    velocity = np.asarray(velocity, dtype=float)
+    h0 = root[..., 2]
+    h1 = h0 + velocity[..., 2] * dt
+    v = np.stack([velocity[..., 0], np.zeros_like(velocity[..., 0]), velocity[..., 1]], axis=-1)
+    step = quat.rotate(quat.about_y(0.5 * (h0 + h1)), v) * np.asarray(dt, dtype=float)[..., None]
+    return np.stack([root[..., 0] + step[..., 0], root[..., 1] + step[..., 2], h1], axis=-1)
 
 
 def _below(skel: Skeleton, root: int) -> np.ndarray:

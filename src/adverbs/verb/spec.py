@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import math
 import tomllib
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -85,19 +86,24 @@ class SpecError(AdverbsError):
         super().__init__(f"{where}: {reason}")
 
 
+def read_toml(path: Path, kind: str, error: Callable[[Path, str], AdverbsError]) -> dict[str, Any]:
+    """The table in TOML file ``path`` (a ``kind``: "spec", "graph"); what goes wrong is ``error(path, reason)``."""
+    try:
+        return tomllib.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise error(path, f"no such {kind} file") from None
+    except UnicodeDecodeError:
+        raise error(path, "not a text file (UTF-8)") from None
+    except OSError as e:
+        raise error(path, f"cannot read: {e.strerror}") from None
+    except tomllib.TOMLDecodeError as e:
+        raise error(path, f"not valid TOML: {e}") from None
+
+
 def load_spec(path: str | Path) -> dict[str, Any]:
     """Parse and check a spec's structure (types, names, fields); does not read the BVH files."""
     path = Path(path)
-    try:
-        raw = tomllib.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise SpecError(path, "no such spec file") from None
-    except UnicodeDecodeError:
-        raise SpecError(path, "not a text file (UTF-8)") from None
-    except OSError as e:
-        raise SpecError(path, f"cannot read: {e.strerror}") from None
-    except tomllib.TOMLDecodeError as e:
-        raise SpecError(path, f"not valid TOML: {e}") from None
+    raw = read_toml(path, "spec", SpecError)
     _unknown(path, raw, _TOP, None)
     name = str(raw.get("name", path.stem))
     if raw.get("cut") is not None and not isinstance(raw["cut"], dict):
