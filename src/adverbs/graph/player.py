@@ -41,6 +41,7 @@ released by either, released) and how far it has rolled off, for a planter.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -139,6 +140,7 @@ class GraphState:
     shown_before: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
     inertial: np.ndarray | None = None
     alone: np.ndarray | None = None
+    stay: np.ndarray | None = None
     held_before: np.ndarray | None = None
     latencies: list[tuple[int, str, float]] = field(default_factory=list)
     caches: dict = field(default_factory=dict)
@@ -156,15 +158,21 @@ class GraphState:
 
 
 def new_state(
-    graph: Graph, creatures: int = 1, seed: int = 0, start: str | int | None = None, points: np.ndarray | None = None,
-    root: np.ndarray | None = None,
+    graph: Graph, creatures: int = 1, seed: int = 0, start: str | int | Sequence[str | int] | None = None,
+    points: np.ndarray | None = None, root: np.ndarray | None = None,
 ) -> GraphState:  # fmt: skip
-    """C creatures at the start of ``start`` (default the graph's), adverbs ``points (C, A)`` (default the graph's
-    defaults), roots ``(C, 3)``; each draws its default transitions from its own generator (``seed`` spawns them)."""
+    """C creatures at the start of ``start`` (default the graph's; or one verb per creature), adverbs ``points (C, A)``
+    (default the graph's defaults), roots ``(C, 3)``; each draws its default transitions from its own generator
+    (``seed`` spawns them)."""
     if isinstance(creatures, bool) or not isinstance(creatures, int | np.integer) or creatures < 1:
         raise AdverbsError(f"creatures must be a whole number ≥ 1, got {creatures!r}")
     c = int(creatures)
-    v = graph.start if start is None else graph.verb_index(start)
+    if start is None or isinstance(start, str | int | np.integer):
+        v = np.full(c, graph.start if start is None else graph.verb_index(start))
+    elif len(start) != c:
+        raise AdverbsError(f"start names {len(start)} verbs for {c} creatures")
+    else:
+        v = np.array([graph.start if s is None else graph.verb_index(s) for s in start], dtype=np.int64)
     a = len(graph.adverb_names)
     p = np.tile(graph.defaults, (c, 1)) if points is None else np.array(np.broadcast_to(np.asarray(points, dtype=float), (c, a)))
     if not np.all(np.isfinite(p)):
@@ -173,13 +181,14 @@ def new_state(
     r = np.zeros((c, 3)) if root is None else np.array(np.broadcast_to(np.asarray(root, dtype=float), (c, 3)))
     j = graph.skeleton.num_joints
     state = GraphState(
-        graph, p, np.full(c, v), np.zeros(c), np.full(c, -1), np.zeros(c), np.full(c, -1), np.zeros(c), np.zeros(c),
+        graph, p, v, np.zeros(c), np.full(c, -1), np.zeros(c), np.full(c, -1), np.zeros(c), np.zeros(c),
         np.zeros((c, 4)), r, np.zeros(c), [[] for _ in range(c)],
         [np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(c)], np.full(c, -1), np.zeros(c),
         np.zeros(c, dtype=bool), np.zeros((c, j, 3)), np.zeros((c, j, 3)), np.zeros((c, j, 3)), np.zeros((c, j, 3)),
         np.zeros((c, 3)), np.full(c, 1e9), np.full(c, INTERRUPT_HALFLIFE),
     )  # fmt: skip
     state.inertial = np.zeros(c, dtype=bool)
+    state.stay = np.full(c, -1)
     for k in range(c):
         _settle_queue(state, k)
     return state
@@ -193,19 +202,20 @@ def _settle_queue(state: GraphState, c: int) -> None:
     region has gone by in this cycle loops into itself first."""
     graph = state.graph
     q = state.queue[c]
-    if not q:
-        q.append(graph.draw(int(state.verb[c]), state.rngs[c]))
     v = int(state.verb[c])
-    first = graph.transitions[q[0]]
     loop = graph.loop(v)
+    if not q:
+        q.append(loop if state.stay[c] == v and loop is not None else graph.draw(v, state.rngs[c]))
+    first = graph.transitions[q[0]]
     if graph.verbs[v].cyclic and first.source_region[0] < state.g[c] - _LATE and loop is not None and q[0] != loop:
         q.insert(0, loop)
 
 
-def command(state: GraphState, creature: int, verb: str | int) -> list[int]:
+def command(state: GraphState, creature: int, verb: str | int, stay: bool = False) -> list[int]:
     """Ask creature ``creature`` to perform ``verb``: queue the path with the fewest transitions to it.
 
-    Returns the transitions queued. During an interruptible transition the creature carries on from the
+    ``stay``: once there, keep playing ``verb`` (through its loop) until the next command; otherwise the queue
+    draws the next transition by likelihood as soon as it empties. Returns the transitions queued. During an interruptible transition the creature carries on from the
     pose it shows (see the module); otherwise the path starts from the verb being entered once it plays.
     An unknown or unreachable verb raises :class:`CommandRefused` and changes nothing.
     """
@@ -216,6 +226,7 @@ def command(state: GraphState, creature: int, verb: str | int) -> list[int]:
     target = graph.verb_index(verb)
     now = int(state.into[c]) if state.active[c] >= 0 else int(state.verb[c])
     path = graph.path(now, target)  # raises before anything changes
+    state.stay[c] = target if stay and graph.loop(target) is not None else -1
     state.goal[c] = target
     state.asked[c] = state.time[c]
     if state.active[c] >= 0 and target != state.into[c] and graph.transitions[state.active[c]].interruptible:

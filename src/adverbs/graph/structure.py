@@ -29,6 +29,7 @@ from ..verb.planting import effector_joints
 from ..verb.tables import Verb
 
 BLENDS = ("cosine", "inertial")
+REACH = 0.5  # how far past its examples a graph plays an adverb, in spans of the examples (each side)
 LOOP = 0.25  # the fraction of a cycle over which a cyclic verb's own loop blends one cycle into the next
 
 
@@ -226,6 +227,35 @@ class Graph:
         if not np.all(np.isfinite(p)):
             bad = self.adverb_names[int(np.flatnonzero(~np.isfinite(p))[0])]
             raise AdverbsError(f"adverb {bad!r} must be a finite number (got NaN or infinity)")
+        return p
+
+    def adverb_range(self, margin: float = REACH) -> tuple[np.ndarray, np.ndarray]:
+        """The lowest and highest value ``(A,)`` each adverb may take: over the verbs that read it, the span of
+        their examples widened by ``margin`` of that span on each side (how far the graph extrapolates).
+        An adverb only clamped verbs read spans their examples alone."""
+        lo, hi = np.full(len(self.adverb_names), np.inf), np.full(len(self.adverb_names), -np.inf)
+        for v, verb in enumerate(self.verbs):
+            if not len(self.columns[v]):
+                continue
+            a, b = verb.points.min(axis=0), verb.points.max(axis=0)
+            m = 0.0 if (self.clamped and self.clamped[v]) else margin
+            cols = self.columns[v]
+            lo[cols] = np.minimum(lo[cols], a - m * (b - a))
+            hi[cols] = np.maximum(hi[cols], b + m * (b - a))
+        return lo, hi
+
+    def check_point(self, p: np.ndarray, margin: float = REACH) -> np.ndarray:
+        """``p (A,)`` if every adverb lies within :meth:`adverb_range`, else :class:`CommandRefused` naming it."""
+        p = np.asarray(p, dtype=float)
+        lo, hi = self.adverb_range(margin)
+        for i, name in enumerate(self.adverb_names):
+            if not np.isfinite(p[i]):
+                raise CommandRefused(f"adverb {name!r} must be a finite number, got {p[i]}")
+            if not lo[i] - 1e-9 <= p[i] <= hi[i] + 1e-9:
+                raise CommandRefused(
+                    f"{name}={p[i]:g} is out of range: graph {self.name!r} plays {name} from {lo[i]:g} to {hi[i]:g} "
+                    f"(its examples' span, {margin:g} of it beyond on each side)"
+                )
         return p
 
     # ----- planning ---------------------------------------------------------------------------------

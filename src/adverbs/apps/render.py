@@ -1,0 +1,291 @@
+"""Pictures of motion: figures drawn as bones on a floor grid, foot contacts marked, the root's path trailing.
+
+:func:`render` writes an animation (``.gif``, ``.mp4``) or a filmstrip (``.png``: evenly spaced frames side by
+side) of one or more clips seen from a chosen camera (an orthographic view from an azimuth and elevation).
+Matplotlib draws each frame; imageio (Pillow for GIF, its FFmpeg plugin for MP4) encodes them.
+
+The camera follows the figures (the mean of their roots, smoothed) and widens to keep them all in view;
+``follow=False`` frames the whole motion once. Left limbs are blue, right red, each figure's trunk its own
+colour; a foot on the ground (found from its height and speed, :func:`adverbs.motion.contacts.find_contacts`)
+is marked with a dot on the floor.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import AdverbsError
+from ..motion.clip import Clip
+from ..motion.contacts import find_contacts
+
+CAMERAS = {"three-quarter": (40.0, 18.0), "side": (90.0, 4.0), "front": (0.0, 4.0), "back": (180.0, 4.0), "top": (0.0, 89.0)}
+FORMATS = (".gif", ".mp4", ".png")
+TRUNK = ("0.25", "tab:green", "tab:purple", "tab:brown", "tab:olive", "tab:cyan", "tab:pink", "tab:orange")
+MAX_FRAMES = 20_000
+
+
+def camera(name: str) -> tuple[float, float]:
+    """Azimuth and elevation (degrees) of a named camera (``three-quarter``, ``side``, ``front``, ``back``, ``top``) or of
+    ``"AZ,EL"``; the camera looks from there at the figures (azimuth 0: from +z, 90: from +x)."""
+    if name in CAMERAS:
+        return CAMERAS[name]
+    try:
+        az, el = (float(x) for x in name.split(","))
+    except ValueError:
+        raise AdverbsError(f"camera must be one of {', '.join(CAMERAS)} or AZIMUTH,ELEVATION in degrees, got {name!r}") from None
+    if not (np.isfinite(az) and np.isfinite(el) and -90.0 <= el <= 90.0):
+        raise AdverbsError(f"camera elevation must be from -90 to 90 degrees, got {name!r}")
+    return az, el
+
+
+@dataclass
+class _Figure:
+    """One clip ready to draw: world positions ``(F, J, 3)``, parents, colours per bone, contacts, trail joint."""
+
+    positions: np.ndarray
+    parents: np.ndarray
+    bones: list[int]
+    colours: list
+    feet: list[int]
+    planted: np.ndarray
+    trail: int
+    fps: float
+
+
+def _figure(clip: Clip, k: int) -> _Figure:
+    pos = clip.global_positions()
+    skel = clip.skeleton
+    trunk = TRUNK[k % len(TRUNK)]
+    colours = [{"left": "tab:blue", "right": "tab:red"}.get(skel.side(j), trunk) for j in range(skel.num_joints)]
+    try:
+        contacts = find_contacts(clip)
+        feet = [f.toe if f.toe is not None else f.ankle for f in contacts.feet]
+        planted = contacts.planted
+    except AdverbsError:  # no feet named: nothing to mark
+        feet, planted = [], np.zeros((clip.num_frames, 0), dtype=bool)
+    travel = np.linalg.norm(np.diff(pos[:, : min(3, skel.num_joints)][..., [0, 2]], axis=0), axis=-1).sum(axis=0)
+    # bones: joints a rigid link from their parent (a root that stays at the origin while the hips travel is none)
+    bones = []
+    for j, p in enumerate(skel.parents):
+        if p >= 0:
+            length = np.linalg.norm(pos[:, j] - pos[:, p], axis=-1)
+            if length.max() > 1e-6 and np.ptp(length) < 0.01:
+                bones.append(j)
+    return _Figure(pos, skel.parents, bones, colours, feet, planted, int(np.argmax(travel)), clip.fps)
+
+
+def _basis(az: float, el: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    a, e = np.radians(az), np.radians(el)
+    eye = np.array([np.sin(a) * np.cos(e), np.sin(e), np.cos(a) * np.cos(e)])
+    up_world = np.array([0.0, 1.0, 0.0]) if abs(el) < 89.9 else np.array([-np.sin(a), 0.0, -np.cos(a)])
+    right = np.cross(up_world, eye)
+    right /= np.linalg.norm(right)
+    return right, np.cross(eye, right), eye
+
+
+class _Painter:
+    """Draws frames of figures into one matplotlib axes: its artists are made once and moved frame after frame."""
+
+    def __init__(self, ax, figures: Sequence[_Figure], az: float, el: float, floor: float, trail: float):
+        from matplotlib.collections import LineCollection
+
+        self.figures, self.floor, self.trail = figures, floor, trail
+        self.right, self.up, self.eye = _basis(az, el)
+        self.grid = LineCollection([], colors="0.85", linewidths=0.6, zorder=0)
+        self.bones = LineCollection([], linewidths=2.2, capstyle="round", zorder=3)
+        self.ax = None
+        self.attach(ax)
+
+    def attach(self, ax) -> None:
+        """Draw into ``ax`` from now on (a filmstrip's next panel)."""
+        from matplotlib.collections import LineCollection
+
+        self.ax = ax
+        ax.set_axis_off()
+        ax.set_aspect("equal")
+        self.grid = ax.add_collection(LineCollection([], colors="0.85", linewidths=0.6, zorder=0))
+        self.bones = ax.add_collection(LineCollection([], linewidths=2.2, capstyle="round", zorder=3))
+        self.trails = [ax.plot([], [], color="0.55", lw=1.2, zorder=1)[0] for _ in self.figures]
+        self.spots = ax.plot([], [], "o", color="tab:orange", ms=5, zorder=2)[0]
+        self.clock = ax.text(0.01, 0.98, "", transform=ax.transAxes, va="top", fontsize=9, color="0.3")
+
+    def project(self, p: np.ndarray) -> np.ndarray:
+        return np.stack([p @ self.right, p @ self.up], axis=-1)
+
+    def draw(self, t: float, centre: np.ndarray, half: float, aspect: float, title: str = "", clock: bool = False) -> None:
+        ax = self.ax
+        step = 1.0 if half < 12 else 5.0  # the floor: a grid around the centre
+        x0, z0 = np.floor((centre[[0, 2]] - 2 * half) / step) * step
+        n = int(np.ceil(4 * half / step)) + 1
+        ticks = np.arange(n + 1) * step
+        ends = np.array([0.0, n * step])
+        lines = [[(x0 + a, self.floor, z0 + b) for b in ends] for a in ticks]
+        lines += [[(x0 + b, self.floor, z0 + a) for b in ends] for a in ticks]
+        self.grid.set_segments(self.project(np.array(lines)))
+        segments, colours, depths, spots = [], [], [], []
+        for fig, line in zip(self.figures, self.trails):
+            f = min(int(round(t * fig.fps)), len(fig.positions) - 1)
+            pos = fig.positions[f]
+            if self.trail > 0:
+                a = max(0, f - int(self.trail * fig.fps))
+                path = fig.positions[a : f + 1, fig.trail].copy()
+                path[:, 1] = self.floor
+                line.set_data(*self.project(path).T)
+            for i, j in enumerate(fig.feet):
+                if fig.planted[f, i]:
+                    spots.append(self.project(np.array([pos[j, 0], self.floor, pos[j, 2]])))
+            for j in fig.bones:
+                p = fig.parents[j]
+                segments.append(self.project(pos[[p, j]]))
+                colours.append(fig.colours[j])
+                depths.append(0.5 * (pos[p] + pos[j]) @ self.eye)
+        order = np.argsort(depths)
+        self.bones.set_segments([segments[i] for i in order])
+        self.bones.set_color([colours[i] for i in order])
+        self.spots.set_data(*(np.array(spots).T if spots else ([], [])))
+        c = self.project(centre)
+        ax.set_xlim(c[0] - half, c[0] + half)
+        ax.set_ylim(c[1] - half / aspect, c[1] + half / aspect)
+        self.clock.set_text(f"{t:5.1f} s" if clock else "")
+        if title:
+            ax.set_title(title, fontsize=9)
+
+
+def _framing(figures: Sequence[_Figure], times: np.ndarray, follow: bool, painter: _Painter, aspect: float):
+    """Per output time: the point the camera looks at ``(T, 3)`` and the half-width of the view ``(T,)``."""
+    roots = np.stack([
+        np.stack([f.positions[min(int(round(t * f.fps)), len(f.positions) - 1), f.trail] for f in figures]) for t in times
+    ])  # fmt: skip (T, K, 3)
+    everything = np.concatenate([f.positions.reshape(-1, 3) for f in figures])
+    height = float(np.ptp(everything[:, 1])) if len(everything) else 1.0
+    if not follow:
+        flat = painter.project(everything)
+        lo, hi = flat.min(axis=0), flat.max(axis=0)
+        centre_2d = 0.5 * (lo + hi)
+        half = 0.55 * max(hi[0] - lo[0], (hi[1] - lo[1]) * aspect, 1.0)
+        # a point whose projection is the centre of the view
+        centre = centre_2d[0] * painter.right + centre_2d[1] * painter.up
+        return np.tile(centre, (len(times), 1)), np.full(len(times), half)
+    centre = roots.mean(axis=1)
+    spread = np.linalg.norm(roots - centre[:, None], axis=-1).max(axis=1)
+    # smoothed both ways (a critically damped look-at would lag): a moving average over about a second
+    width = max(1, int(round(len(times) / max(times[-1] - times[0], 1e-9)))) if len(times) > 1 else 1
+    kernel = np.ones(width) / width
+    pad = lambda x: np.concatenate([np.repeat(x[:1], width // 2, 0), x, np.repeat(x[-1:], width - 1 - width // 2, 0)])  # noqa: E731
+    centre = np.stack([np.convolve(pad(centre[:, i]), kernel, mode="valid") for i in range(3)], axis=1)
+    spread = np.convolve(pad(spread), kernel, mode="valid")
+    centre[:, 1] = 0.5 * height + float(everything[:, 1].min())
+    half = np.maximum(spread + 0.6 * height, 0.7 * height * aspect)
+    return centre, half
+
+
+def render(
+    clips: Sequence[Clip],
+    output: str | Path,
+    view: str = "three-quarter",
+    fps: float | None = None,
+    size: tuple[int, int] = (640, 400),
+    panels: int = 8,
+    follow: bool = True,
+    trail: float = 4.0,
+    floor: float | None = None,
+    progress: Callable[[int, int], object] | None = None,
+) -> Path:
+    """Draw ``clips`` (one scene: they play together from time 0) into ``output``: ``.gif`` or ``.mp4`` (every frame
+    at ``fps``, default the first clip's up to 30) or ``.png`` (``panels`` evenly spaced frames). ``view``: a
+    named camera or ``"AZ,EL"``; ``trail``: seconds of root path shown (0: none); ``floor``: the floor's height
+    (default: 0, or where the feet are if they stand well off it)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+
+    output = Path(output)
+    if output.suffix.lower() not in FORMATS:
+        raise AdverbsError(f"{output}: pictures are written as {', '.join(FORMATS)}, not {output.suffix or 'no extension'!r}")
+    if not clips:
+        raise AdverbsError("nothing to render: give one clip or more")
+    az, el = camera(view)
+    figures = [_figure(c, k) for k, c in enumerate(clips)]
+    if floor is None:
+        lowest = float(np.percentile(np.concatenate([f.positions[..., 1].min(axis=1) for f in figures]), 2))
+        floor = 0.0 if abs(lowest) < 0.1 else lowest
+    seconds = max((len(f.positions) - 1) / f.fps for f in figures)
+    fps = min(clips[0].fps, 30.0) if fps is None else float(fps)
+    if not (np.isfinite(fps) and 0 < fps <= 120):
+        raise AdverbsError(f"fps must be a number from 0 to 120, got {fps}")
+    w, h = (int(s) for s in size)
+    if not (16 <= w <= 4096 and 16 <= h <= 4096):
+        raise AdverbsError(f"size must be from 16 to 4096 pixels each way, got {w}x{h}")
+    still = output.suffix.lower() == ".png"
+    if still:
+        if not 1 <= panels <= 64:
+            raise AdverbsError(f"panels must be from 1 to 64, got {panels}")
+        times = np.linspace(0.0, seconds, panels)
+    else:
+        n = int(np.floor(seconds * fps + 1e-9)) + 1
+        if n > MAX_FRAMES:
+            raise AdverbsError(f"{seconds:.1f} s at {fps:g} fps is {n:,} frames; render at most {MAX_FRAMES:,} (a lower --fps)")
+        times = np.arange(n) / fps
+    w, h = w + w % 2, h + h % 2  # video encoders want even sizes
+    output.parent.mkdir(parents=True, exist_ok=True)
+    if still:
+        cols = min(panels, 4)
+        rows = int(np.ceil(panels / cols))
+        fig = Figure(figsize=(cols * w / 100 / 2, rows * h / 100 / 2 * 1.1), dpi=100)
+        axes = fig.subplots(rows, cols, squeeze=False).ravel()
+        aspect = w / h
+        painter = _Painter(axes[0], figures, az, el, floor, trail)
+        centres, halves = _framing(figures, times, follow, painter, aspect)
+        for i, ax in enumerate(axes):
+            if i >= len(times):
+                ax.set_axis_off()
+                continue
+            if i:
+                painter.attach(ax)
+            painter.draw(times[i], centres[i], halves[i], aspect, f"{times[i]:.1f} s")
+            if progress:
+                progress(i + 1, len(times))
+        fig.tight_layout()
+        tmp = output.with_name(output.name + ".part.png")
+        fig.savefig(tmp, dpi=100)
+        tmp.replace(output)
+        return output
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    fig = Figure(figsize=(w / 100, h / 100), dpi=100)
+    FigureCanvasAgg(fig)
+    ax = fig.add_axes((0, 0, 1, 1))
+    painter = _Painter(ax, figures, az, el, floor, trail)
+    centres, halves = _framing(figures, times, follow, painter, w / h)
+    frames = np.empty((len(times), h, w, 3), dtype=np.uint8)
+    for i, t in enumerate(times):
+        painter.draw(t, centres[i], halves[i], w / h, clock=True)
+        fig.canvas.draw()
+        frames[i] = np.asarray(fig.canvas.buffer_rgba())[:h, :w, :3]
+        if progress:
+            progress(i + 1, len(times))
+    _encode(frames, output, fps)
+    return output
+
+
+def _encode(frames: np.ndarray, output: Path, fps: float) -> None:
+    """Write ``frames (T, H, W, 3)`` to ``output`` (GIF or MP4) through a temporary file, so a failed write leaves
+    what was there."""
+    import imageio.v2 as imageio
+
+    tmp = output.with_name(output.name + ".part" + output.suffix)
+    try:
+        if output.suffix.lower() == ".gif":
+            imageio.mimwrite(tmp, list(frames), format="GIF", duration=1000.0 / fps, loop=0)
+        else:
+            with imageio.get_writer(tmp, format="FFMPEG", fps=fps, codec="libx264", quality=7, macro_block_size=2) as w:
+                for f in frames:
+                    w.append_data(f)
+        tmp.replace(output)
+    finally:
+        tmp.unlink(missing_ok=True)
