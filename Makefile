@@ -26,6 +26,7 @@ demo: $(STAMP)
 	$(BIN)/adverbs synth out/cmu_run.verb --adverb speed=3.0 --adverb turn=60 --cycles 4 --floor slope:5 -o out/cmu_run_turning_left_uphill.bvh
 	$(BIN)/adverbs graph graphs/bandai.toml --describe
 	$(BIN)/adverbs graph graphs/bandai.toml --play "1:walk,5:turn=30,8:run,12:walk,15:idle,17:bow,25:reach" --seconds 30 --adverb valence=0.5 -o out/bandai_graph.bvh
+	$(BIN)/adverbs demo --out out/demo
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q -n auto

@@ -10,6 +10,9 @@
     adverbs heldout [--data DIR]
     adverbs graph GRAPH.toml [--describe [--json] | --plan FROM TO | --play SCRIPT -o OUT.bvh [--seconds S]
                   [--fps F] [--seed N] [--adverb NAME=VALUE ...] [--floor ...] [--start VERB]]
+    adverbs run [GRAPH.toml ...] --script SCRIPT.toml --out DIR [--realtime] [--fps N] [--seed S] [--seconds S]
+    adverbs render MOTION.bvh ... -o OUT.gif|OUT.mp4|OUT.png [--camera C] [--fps F] [--size WxH] [--fixed]
+    adverbs demo [--out DIR]
 
 Errors in the input print one line naming the file and line and exit with status 1.
 """
@@ -35,6 +38,7 @@ from ..verb.planting import foot_drift, measure_feet, plant_feet
 from ..verb.store import load_verb, save_verb
 from ..verb.synthesis import render
 from ..verb.tables import Verb
+from . import scene
 from .evaluate import DATA, METHODS, evaluate, held_out, predict
 
 
@@ -228,6 +232,7 @@ def build_parser() -> argparse.ArgumentParser:
     )  # fmt: skip
     p.add_argument("--start", metavar="VERB", help="with --play: the verb to start in (default: the graph's)")
     p.set_defaults(graph_parser=p)
+    scene.add_parsers(sub, _positive, _seed)
     return parser
 
 
@@ -493,7 +498,9 @@ def _graph(args: argparse.Namespace) -> None:
 
 
 def _run(args: argparse.Namespace) -> None:
-    if args.command == "info":
+    if args.command in ("run", "render", "demo"):
+        scene.main(args)
+    elif args.command == "info":
         clip = read_bvh(args.file)
         report = info(clip, args.file)
         if args.json:

@@ -2,7 +2,7 @@
 
 :func:`render` writes an animation (``.gif``, ``.mp4``) or a filmstrip (``.png``: evenly spaced frames side by
 side) of one or more clips seen from a chosen camera (an orthographic view from an azimuth and elevation).
-Matplotlib draws each frame; imageio (Pillow for GIF, its FFmpeg plugin for MP4) encodes them.
+Matplotlib draws each frame; Pillow encodes a GIF, imageio's FFmpeg plugin an MP4.
 
 The camera follows the figures (the mean of their roots, smoothed) and widens to keep them all in view;
 ``follow=False`` frames the whole motion once. Left limbs are blue, right red, each figure's trunk its own
@@ -193,12 +193,14 @@ def render(
     follow: bool = True,
     trail: float = 4.0,
     floor: float | None = None,
+    split: bool = False,
     progress: Callable[[int, int], object] | None = None,
 ) -> Path:
     """Draw ``clips`` (one scene: they play together from time 0) into ``output``: ``.gif`` or ``.mp4`` (every frame
     at ``fps``, default the first clip's up to 30) or ``.png`` (``panels`` evenly spaced frames). ``view``: a
     named camera or ``"AZ,EL"``; ``trail``: seconds of root path shown (0: none); ``floor``: the floor's height
-    (default: 0, or where the feet are if they stand well off it)."""
+    (default: 0, or where the feet are if they stand well off it); ``split``: each clip in its own view, side by
+    side (a filmstrip: a row each), rather than all in one."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -233,38 +235,55 @@ def render(
         times = np.arange(n) / fps
     w, h = w + w % 2, h + h % 2  # video encoders want even sizes
     output.parent.mkdir(parents=True, exist_ok=True)
+    scenes = [[f] for f in figures] if split else [figures]  # who shares a view
+    names = [c.name for c in clips] if split else [""]
     if still:
-        cols = min(panels, 4)
-        rows = int(np.ceil(panels / cols))
-        fig = Figure(figsize=(cols * w / 100 / 2, rows * h / 100 / 2 * 1.1), dpi=100)
-        axes = fig.subplots(rows, cols, squeeze=False).ravel()
+        cols = min(panels, 4) if len(scenes) == 1 else panels
+        rows = int(np.ceil(panels / cols)) * len(scenes)
+        fig = Figure(figsize=(cols * w / 200, rows * h / 200 * 1.1), dpi=100)
+        axes = fig.subplots(rows, cols, squeeze=False)
         aspect = w / h
-        painter = _Painter(axes[0], figures, az, el, floor, trail)
-        centres, halves = _framing(figures, times, follow, painter, aspect)
-        for i, ax in enumerate(axes):
-            if i >= len(times):
-                ax.set_axis_off()
-                continue
-            if i:
-                painter.attach(ax)
-            painter.draw(times[i], centres[i], halves[i], aspect, f"{times[i]:.1f} s")
-            if progress:
-                progress(i + 1, len(times))
+        per = rows // len(scenes)
+        for k, scene in enumerate(scenes):
+            cells = axes[k * per : (k + 1) * per].ravel()
+            painter = _Painter(cells[0], scene, az, el, floor, trail)
+            centres, halves = _framing(scene, times, follow, painter, aspect)
+            for i, ax in enumerate(cells):
+                if i >= len(times):
+                    ax.set_axis_off()
+                    continue
+                if i:
+                    painter.attach(ax)
+                label = f"{names[k]}, {times[i]:.1f} s" if names[k] else f"{times[i]:.1f} s"
+                painter.draw(times[i], centres[i], halves[i], aspect, label)
+                if progress:
+                    progress(k * len(times) + i + 1, len(times) * len(scenes))
         fig.tight_layout()
         tmp = output.with_name(output.name + ".part.png")
-        fig.savefig(tmp, dpi=100)
-        tmp.replace(output)
+        try:
+            fig.savefig(tmp, dpi=100)
+            tmp.replace(output)
+        finally:
+            tmp.unlink(missing_ok=True)
         return output
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
     fig = Figure(figsize=(w / 100, h / 100), dpi=100)
     FigureCanvasAgg(fig)
-    ax = fig.add_axes((0, 0, 1, 1))
-    painter = _Painter(ax, figures, az, el, floor, trail)
-    centres, halves = _framing(figures, times, follow, painter, w / h)
+    width = 1.0 / len(scenes)
+    aspect = w / h / len(scenes)
+    painters, framings = [], []
+    for k, scene in enumerate(scenes):
+        ax = fig.add_axes((k * width, 0, width, 1))
+        painters.append(_Painter(ax, scene, az, el, floor, trail))
+        framings.append(_framing(scene, times, follow, painters[-1], aspect))
+        if names[k]:
+            ax.text(0.5, 0.98, names[k], transform=ax.transAxes, ha="center", va="top", fontsize=10)
     frames = np.empty((len(times), h, w, 3), dtype=np.uint8)
     for i, t in enumerate(times):
-        painter.draw(t, centres[i], halves[i], w / h, clock=True)
+        for k, painter in enumerate(painters):
+            centres, halves = framings[k]
+            painter.draw(t, centres[i], halves[i], aspect, clock=k == 0)
         fig.canvas.draw()
         frames[i] = np.asarray(fig.canvas.buffer_rgba())[:h, :w, :3]
         if progress:
@@ -275,14 +294,25 @@ def render(
 
 def _encode(frames: np.ndarray, output: Path, fps: float) -> None:
     """Write ``frames (T, H, W, 3)`` to ``output`` (GIF or MP4) through a temporary file, so a failed write leaves
-    what was there."""
-    import imageio.v2 as imageio
-
+    what was there. A GIF takes one palette for every frame (made from a few of them: the pictures have few
+    colours), which is much faster than a palette per frame and does not flicker."""
     tmp = output.with_name(output.name + ".part" + output.suffix)
     try:
         if output.suffix.lower() == ".gif":
-            imageio.mimwrite(tmp, list(frames), format="GIF", duration=1000.0 / fps, loop=0)
+            from PIL import Image
+
+            from matplotlib.colors import to_rgb
+
+            sample = frames[np.linspace(0, len(frames) - 1, min(len(frames), 8)).astype(int)]
+            named = ["tab:blue", "tab:red", "tab:orange", "0.55", "0.85", *TRUNK]  # each colour drawn, whole
+            swatch = np.repeat((255 * np.array([to_rgb(c) for c in named])).astype(np.uint8)[None], 64, axis=0)
+            swatch = np.repeat(swatch, frames.shape[2] // len(named) + 1, axis=1)[:, : frames.shape[2]]
+            palette = Image.fromarray(np.concatenate([*sample, swatch], axis=0)).quantize(colors=64, method=Image.Quantize.MEDIANCUT)
+            images = [Image.fromarray(f).quantize(palette=palette, dither=Image.Dither.NONE) for f in frames]
+            images[0].save(tmp, format="GIF", save_all=True, append_images=images[1:], duration=round(1000.0 / fps), loop=0)
         else:
+            import imageio.v2 as imageio
+
             with imageio.get_writer(tmp, format="FFMPEG", fps=fps, codec="libx264", quality=7, macro_block_size=2) as w:
                 for f in frames:
                     w.append_data(f)

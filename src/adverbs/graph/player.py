@@ -159,11 +159,11 @@ class GraphState:
 
 def new_state(
     graph: Graph, creatures: int = 1, seed: int = 0, start: str | int | Sequence[str | int] | None = None,
-    points: np.ndarray | None = None, root: np.ndarray | None = None,
+    points: np.ndarray | None = None, root: np.ndarray | None = None, stay: bool | np.ndarray = False,
 ) -> GraphState:  # fmt: skip
     """C creatures at the start of ``start`` (default the graph's; or one verb per creature), adverbs ``points (C, A)``
     (default the graph's defaults), roots ``(C, 3)``; each draws its default transitions from its own generator
-    (``seed`` spawns them)."""
+    (``seed`` spawns them), or with ``stay (C,)`` keeps playing its verb (see :func:`command`)."""
     if isinstance(creatures, bool) or not isinstance(creatures, int | np.integer) or creatures < 1:
         raise AdverbsError(f"creatures must be a whole number ≥ 1, got {creatures!r}")
     c = int(creatures)
@@ -188,7 +188,7 @@ def new_state(
         np.zeros((c, 3)), np.full(c, 1e9), np.full(c, INTERRUPT_HALFLIFE),
     )  # fmt: skip
     state.inertial = np.zeros(c, dtype=bool)
-    state.stay = np.full(c, -1)
+    state.stay = np.array(np.broadcast_to(np.asarray(stay, dtype=bool), (c,)))
     for k in range(c):
         _settle_queue(state, k)
     return state
@@ -205,7 +205,7 @@ def _settle_queue(state: GraphState, c: int) -> None:
     v = int(state.verb[c])
     loop = graph.loop(v)
     if not q:
-        q.append(loop if state.stay[c] == v and loop is not None else graph.draw(v, state.rngs[c]))
+        q.append(loop if state.stay[c] and loop is not None else graph.draw(v, state.rngs[c]))
     first = graph.transitions[q[0]]
     if graph.verbs[v].cyclic and first.source_region[0] < state.g[c] - _LATE and loop is not None and q[0] != loop:
         q.insert(0, loop)
@@ -214,8 +214,9 @@ def _settle_queue(state: GraphState, c: int) -> None:
 def command(state: GraphState, creature: int, verb: str | int, stay: bool = False) -> list[int]:
     """Ask creature ``creature`` to perform ``verb``: queue the path with the fewest transitions to it.
 
-    ``stay``: once there, keep playing ``verb`` (through its loop) until the next command; otherwise the queue
-    draws the next transition by likelihood as soon as it empties. Returns the transitions queued. During an interruptible transition the creature carries on from the
+    ``stay``: once there, keep playing ``verb`` (through its loop; a verb without one goes on by a drawn transition
+    to one that has, and stays there) until the next command; otherwise the queue draws the next transition by
+    likelihood whenever it empties. Returns the transitions queued. During an interruptible transition the creature carries on from the
     pose it shows (see the module); otherwise the path starts from the verb being entered once it plays.
     An unknown or unreachable verb raises :class:`CommandRefused` and changes nothing.
     """
@@ -226,7 +227,7 @@ def command(state: GraphState, creature: int, verb: str | int, stay: bool = Fals
     target = graph.verb_index(verb)
     now = int(state.into[c]) if state.active[c] >= 0 else int(state.verb[c])
     path = graph.path(now, target)  # raises before anything changes
-    state.stay[c] = target if stay and graph.loop(target) is not None else -1
+    state.stay[c] = bool(stay)
     state.goal[c] = target
     state.asked[c] = state.time[c]
     if state.active[c] >= 0 and target != state.into[c] and graph.transitions[state.active[c]].interruptible:

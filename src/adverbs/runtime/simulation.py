@@ -65,6 +65,7 @@ class _Group:
     starts: list[str | None] = field(default_factory=list)
     points: list[np.ndarray] = field(default_factory=list)
     roots: list[np.ndarray] = field(default_factory=list)
+    wander: list[bool] = field(default_factory=list)
     state: GraphState | None = None
     feet: GraphFeet | None = None
     ease_from: np.ndarray | None = None
@@ -74,6 +75,7 @@ class _Group:
     rotations: np.ndarray | None = None
     translations: np.ndarray | None = None
     recorded: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list)
+    shown_active: np.ndarray | None = None  # the transition each creature was in at the last frame
 
     @property
     def size(self) -> int:
@@ -221,11 +223,13 @@ class Simulation:
         name: str | None = None,
         verb: str | None = None,
         adverbs: Mapping[str, float] | None = None,
+        wander: bool = False,
     ) -> Creature:
         """A new creature standing at ``at = (x, z)`` metres, facing ``heading`` degrees (0: along +z, positive
         turning left), playing ``verb`` (default its graph's start) at ``adverbs`` (default the graph's).
-        ``graph``: one of the simulation's graphs, or its name (default the first). Creatures are added
-        before the first frame."""
+        ``graph``: one of the simulation's graphs, or its name (default the first). It keeps playing its verb
+        until told otherwise; ``wander``: it goes on by transitions drawn by likelihood instead (the paper's
+        default), until a command says ``stay``. Creatures are added before the first frame."""
         if self._started:
             raise AdverbsError("add creatures before the simulation's first frame: its arrays are fixed once it runs")
         g = self._graph(graph)
@@ -243,6 +247,7 @@ class Simulation:
         group.starts.append(verb)
         group.points.append(point)
         group.roots.append(np.array([at[0], at[1], math.radians(float(heading))]))
+        group.wander.append(bool(wander))
         c = Creature(self, group, group.size - 1, name)
         self._creatures.append(c)
         return c
@@ -359,7 +364,7 @@ class Simulation:
         for k, g in enumerate(self._groups.values()):
             seed = int(np.random.SeedSequence([self.seed, k]).generate_state(1)[0])
             points = np.array(g.points)
-            g.state = new_state(g.graph, g.size, seed, g.starts, points, np.array(g.roots))
+            g.state = new_state(g.graph, g.size, seed, g.starts, points, np.array(g.roots), ~np.array(g.wander))
             if any(v.holds for v in g.graph.verbs):
                 g.feet = planter(g.graph, g.size, self.floor)
             g.ease_from, g.ease_to = points.copy(), points.copy()
@@ -446,8 +451,9 @@ class Simulation:
             done = easing[u >= 1.0]
             g.ease_over[done] = 0.0
             s.points[done] = g.ease_to[done]
-        before = s.active.copy()
+        before = g.shown_active if g.shown_active is not None else np.full(g.size, -1)
         frame = step(s, dt)
+        g.shown_active = s.active.copy()
         if g.feet is not None and self._plant:
             g.rotations, g.translations, _ = plant(g.feet, frame, dt, s.alone)
         else:
