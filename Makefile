@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test bench lint clean
+.PHONY: demo examples test bench lint clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -13,6 +13,10 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
+	$(BIN)/adverbs demo --out out/demo
+
+# More of what the library does, one command each: verbs built, synthesized, evaluated; a graph played.
+examples: $(STAMP)
 	$(BIN)/adverbs info data/bandai/dataset-1_walk_happy_001.bvh
 	$(BIN)/adverbs build specs/bandai_styled_walk.toml -o out/bandai_styled_walk.verb
 	$(BIN)/adverbs describe out/bandai_styled_walk.verb
@@ -26,7 +30,6 @@ demo: $(STAMP)
 	$(BIN)/adverbs synth out/cmu_run.verb --adverb speed=3.0 --adverb turn=60 --cycles 4 --floor slope:5 -o out/cmu_run_turning_left_uphill.bvh
 	$(BIN)/adverbs graph graphs/bandai.toml --describe
 	$(BIN)/adverbs graph graphs/bandai.toml --play "1:walk,5:turn=30,8:run,12:walk,15:idle,17:bow,25:reach" --seconds 30 --adverb valence=0.5 -o out/bandai_graph.bvh
-	$(BIN)/adverbs demo --out out/demo
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q -n auto
