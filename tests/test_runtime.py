@@ -180,9 +180,9 @@ def test_wandering_creatures_follow_their_seed(cmu):
 
 def test_many_creatures_move_as_each_would_alone(cmu):
     setups = [
-        dict(at=(0.0, 0.0), heading=0.0, adverbs={"walk_speed": 1.1}),
-        dict(at=(3.0, 1.0), heading=45.0, verb="run", adverbs={"run_speed": 3.4, "turn": 30.0}),
-        dict(at=(-2.0, 4.0), heading=-90.0, adverbs={"walk_speed": 1.6, "turn": -50.0}),
+        {"at": (0.0, 0.0), "heading": 0.0, "adverbs": {"walk_speed": 1.1}},
+        {"at": (3.0, 1.0), "heading": 45.0, "verb": "run", "adverbs": {"run_speed": 3.4, "turn": 30.0}},
+        {"at": (-2.0, 4.0), "heading": -90.0, "adverbs": {"walk_speed": 1.6, "turn": -50.0}},
     ]
     together = Simulation(cmu)
     crowd = [together.add_creature(**s) for s in setups]

@@ -1,0 +1,132 @@
+"""The main job and its pictures: `adverbs demo`, `adverbs run`, `adverbs render`, and the BVH it writes opened in
+Blender's own importer where Blender is installed."""
+
+from __future__ import annotations
+
+import json
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from adverbs import AdverbsError, read_bvh
+from adverbs.apps import blender
+from adverbs.apps.cli import main
+from adverbs.apps.render import render
+from adverbs.apps.scene import DEMO_SCRIPT, run_script
+from adverbs.errors import AdverbsWarning
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+@pytest.fixture(scope="module")
+def scene(tmp_path_factory):
+    """The demo's scenario, its first 6 seconds: a Bandai and a CMU creature, feet planted."""
+    out = tmp_path_factory.mktemp("scene")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", AdverbsWarning)
+        sim, paths = run_script([], DEMO_SCRIPT, out, seconds=6.0, quiet=True)
+    return sim, paths
+
+
+def test_the_demo_scene_has_both_creatures_doing_what_the_script_says(scene):
+    sim, paths = scene
+    assert {c.name: c.graph.name for c in sim.creatures} == {"bandai": "bandai", "cmu": "cmu"}
+    for name in ("bandai", "cmu"):
+        clip = read_bvh(paths[name])
+        assert clip.num_frames == 180
+        pos = clip.global_positions()
+        assert np.all(np.isfinite(pos))
+        assert pos[..., 1].min() > -0.005  # nothing below the floor
+    log = json.loads(paths["events"].read_text())
+    walk = [e for e in log["events"] if e["creature"] == "bandai" and e["command"] == "transition" and e["to"] == "walk"]
+    assert walk and walk[0]["from"] == "idle" and 1.0 <= walk[0]["time"] < 2.5  # asked at 1 s, on its way soon after
+    assert not [e for e in log["events"] if e["status"] == "refused"]
+
+
+@pytest.mark.skipif(blender.blender() is None, reason="Blender is not installed here (Debian: apt-get install blender)")
+def test_blender_imports_the_scene_with_our_frames_and_joint_positions(scene):
+    _, paths = scene
+    for name in ("bandai", "cmu"):
+        r = blender.compare(paths[name])
+        clip = read_bvh(paths[name])
+        assert r["blender_frames"] == r["frames"] == clip.num_frames
+        assert r["joints"] == clip.skeleton.num_joints and r["blender_fps"] == pytest.approx(clip.fps)
+        # Blender keeps positions in 32-bit floats: 0.1 mm is a few of their steps at the scene's size
+        assert r["max_difference_m"] <= 1e-4, r
+
+
+def _frames(path):
+    im = Image.open(path)
+    out = []
+    for k in range(getattr(im, "n_frames", 1)):
+        im.seek(k)
+        out.append(np.asarray(im.convert("RGB")))
+    return out
+
+
+def test_render_draws_the_figures_where_they_are(scene, tmp_path):
+    _, paths = scene
+    clips = [read_bvh(paths["bandai"]), read_bvh(paths["cmu"])]
+    gif = render(clips, tmp_path / "scene.gif", fps=5, size=(320, 200), split=True)
+    frames = _frames(gif)
+    assert len(frames) == 30  # frames at 1/30 .. 6 s: 5.97 s at 5 fps
+    for f in frames:
+        dark = f.min(axis=-1) < 120  # the bones (the grid is light grey, the floor white)
+        cols = np.flatnonzero(dark.any(axis=0))
+        assert dark.sum() > 100 and cols.min() < 160 < cols.max()  # a figure in each half
+    png = render(clips[:1], tmp_path / "strip.png", panels=4, size=(320, 240))
+    strip = np.asarray(Image.open(png).convert("RGB"))
+    assert strip.std() > 5
+    mp4 = render(clips[:1], tmp_path / "one.mp4", fps=10, size=(200, 160))
+    import imageio.v2 as imageio
+
+    with imageio.get_reader(mp4) as r:
+        assert sum(1 for _ in r) == 60
+
+
+def test_render_refuses_what_it_cannot_draw(scene, tmp_path):
+    _, paths = scene
+    clip = read_bvh(paths["cmu"])
+    with pytest.raises(AdverbsError, match="gif, .mp4, .png"):
+        render([clip], tmp_path / "x.jpg")
+    with pytest.raises(AdverbsError, match="camera"):
+        render([clip], tmp_path / "x.png", view="sideways")
+    (tmp_path / "keep.gif").write_bytes(b"GIF89a-old")
+    with pytest.raises(AdverbsError, match="fps"):
+        render([clip], tmp_path / "keep.gif", fps=-1)
+    assert (tmp_path / "keep.gif").read_bytes() == b"GIF89a-old"
+
+
+def test_cli_run_and_render(tmp_path, capsys):
+    script = tmp_path / "s.toml"
+    script.write_text("seconds = 2\n[[cues]]\nat = 0.5\nperform = 'run'\n[[cues]]\nat = 1.0\nperform = 'fly'\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", AdverbsWarning)
+        assert main(["run", str(ROOT / "graphs" / "cmu.toml"), "--script", str(script), "--out", str(tmp_path / "o"), "--seed", "2"]) == 0
+    out = capsys.readouterr()
+    assert "creature1 (cmu): run" in out.out and "refused at 1 s: graph 'cmu' has no verb 'fly'" in out.out
+    assert read_bvh(tmp_path / "o" / "creature1.bvh").num_frames == 60
+    assert main(["render", str(tmp_path / "o" / "creature1.bvh"), "-o", str(tmp_path / "c.png"), "--panels", "3", "--camera", "side"]) == 0
+    assert (tmp_path / "c.png").exists()
+    bad = tmp_path / "bad.toml"
+    bad.write_text("seconds = 2\n[[cues]]\nat = 'noon'\nperform = 'run'\n")
+    assert main(["run", str(ROOT / "graphs" / "cmu.toml"), "--script", str(bad), "--out", str(tmp_path / "p")]) == 1
+    err = capsys.readouterr().err
+    assert "bad.toml, line 3: cues[0].at: must be a number" in err
+    assert not (tmp_path / "p").exists()  # refused before anything ran
+
+
+def test_demo_writes_its_files(tmp_path, capsys):
+    assert main(["demo", "--out", str(tmp_path)]) == 0
+    printed = capsys.readouterr().out
+    for name in ("bandai.bvh", "cmu.bvh", "events.json", "demo.gif", "demo.png", "report.json"):
+        assert (tmp_path / name).stat().st_size > 0 and str(tmp_path / name) in printed
+    report = json.loads((tmp_path / "report.json").read_text())
+    played = report["summary"][0]
+    for verb in ("walk", "run", "reach", "bow", "idle"):
+        assert verb in played
+    assert "cmu (cmu): " in report["summary"][1] and "run" in report["summary"][1]
+    assert len(_frames(tmp_path / "demo.gif")) == 340  # 33.97 s at 10 fps
