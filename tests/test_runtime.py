@@ -310,3 +310,19 @@ def test_a_script_cue_the_graph_refuses_names_its_line(tmp_path, cmu):
         sim.run(script.seconds)
     assert [e["source"].rsplit(" ", 1)[-1] for e in sim.log if e["status"] == "refused"] == ["2", "6"]
     assert sim.frames == 60
+
+
+def test_feet_planting_is_switched_by_an_event(cmu):
+    sim = Simulation(cmu)
+    c = sim.add_creature(adverbs={"walk_speed": 1.4})
+    sim.set_plant(False, at=1.0)
+    sim.set_plant(True, at=2.0)
+    free = Simulation(cmu, plant=False)
+    f = free.add_creature(adverbs={"walk_speed": 1.4})
+    sim.run(3.0)
+    free.run(3.0)
+    a, b = c.clip().rotations, f.clip().rotations
+    assert not np.allclose(a[:29], b[:29], atol=1e-6)  # planted: the legs differ from the verb's own
+    np.testing.assert_array_equal(a[30:59], b[30:59])  # frames at 1.0 .. 1.97 s: the verb alone
+    assert not np.allclose(a[60:], b[60:], atol=1e-6)
+    assert [e["on"] for e in sim.log if e["command"] == "plant"] == [False, True]

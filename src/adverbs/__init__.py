@@ -10,6 +10,7 @@ The package is cut in layers, each a subpackage that imports only from the ones 
 | :mod:`adverbs.io` | BVH read and write |
 | :mod:`adverbs.verb` | a verb's tables, building, sampling, synthesis, files, specs, measures, planted feet |
 | :mod:`adverbs.graph` | verb graphs: specs, transitions, the planner, creatures stepping through them |
+| :mod:`adverbs.runtime` | the event loop and clocks, simulations of creatures on graphs, timed scripts |
 | :mod:`adverbs.apps` | the command line and evaluation |
 
 What most users need is re-exported here, so ``import adverbs`` is enough.
@@ -21,6 +22,7 @@ from .graph import CommandRefused, Cue, Graph, GraphSpecError, load_graph, perfo
 from .io import format_bvh, parse_bvh, read_bvh, write_bvh
 from .kinematics import FlatFloor, HeightMapFloor, LegChains, Skeleton, SlopeFloor, forward_kinematics, ik, quat
 from .motion import Clip, DofEncoding, cut_steps, find_contacts
+from .runtime import Creature, Simulation
 from .verb import (
     Adverb,
     Constraint,
@@ -50,6 +52,7 @@ __all__ = [
     "BVHError",
     "Clip",
     "CommandRefused",
+    "Creature",
     "Cue",
     "Constraint",
     "DofEncoding",
@@ -61,6 +64,7 @@ __all__ = [
     "HeightMapFloor",
     "LegChains",
     "SamplingState",
+    "Simulation",
     "Skeleton",
     "SlopeFloor",
     "SpecError",

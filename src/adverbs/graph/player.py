@@ -394,7 +394,7 @@ def _advance(state: GraphState, dt: float) -> None:
         g_new = _generic(state, state.verb, clock, 0, alone)
         nxt = np.array([graph.transitions[state.queue[c][0]].source_region[0] for c in alone])
         begins = g_new >= nxt - _LATE
-        one_shot = np.array([not graph.verbs[v].cyclic for v in state.verb[alone]])
+        one_shot = ~graph.cyclic[state.verb[alone]]
         g_new = np.where(one_shot, np.minimum(g_new, 1.0), g_new)
         for i in np.flatnonzero(begins):
             c = int(alone[i])
@@ -404,16 +404,15 @@ def _advance(state: GraphState, dt: float) -> None:
             _start(state, c, max(float(clock[i]) - at, 0.0))
         rest = ~begins
         state.g[alone[rest]] = g_new[rest]
-    for c in moving:
-        if state.beta[c] >= 1.0:
-            over = (state.beta[c] - 1.0) * state.length[c]
-            state.beta[c] = 1.0
-            _place(state, np.array([c]))
-            _finish(state, int(c))
-            if over > 0:  # the rest of the frame, B alone
-                row = np.array([c])
-                clock = _clock(state, state.verb, state.g[row], 0, row) + over
-                state.g[c] = _generic(state, state.verb, clock, 0, row)[0]
+    for c in moving[state.beta[moving] >= 1.0]:  # transitions ending this frame
+        over = (state.beta[c] - 1.0) * state.length[c]
+        state.beta[c] = 1.0
+        _place(state, np.array([c]))
+        _finish(state, int(c))
+        if over > 0:  # the rest of the frame, B alone
+            row = np.array([c])
+            clock = _clock(state, state.verb, state.g[row], 0, row) + over
+            state.g[c] = _generic(state, state.verb, clock, 0, row)[0]
     _place(state, c_all[state.active >= 0])
 
 

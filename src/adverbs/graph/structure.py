@@ -171,6 +171,11 @@ class Graph:
         return self.verbs[0].skeleton
 
     @cached_property
+    def cyclic(self) -> np.ndarray:
+        """Whether each verb is a cycle ``(V,)``."""
+        return np.array([v.cyclic for v in self.verbs], dtype=bool)
+
+    @cached_property
     def feet(self) -> tuple[int, ...]:
         """The effector joints any verb holds, in the order the first such verb lists them."""
         out: list[int] = []

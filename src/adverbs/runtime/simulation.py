@@ -282,6 +282,20 @@ class Simulation:
                 g.feet = None if g.feet is None else planter(g.graph, g.size, self.floor)
         self._plant = bool(on)
 
+    def set_plant(self, on: bool, at: float | None = None) -> None:
+        """Switch planted feet on or off: now, or at simulation time ``at`` (an event, logged)."""
+        if at is None:
+            self.plant = on
+            return
+        if not (math.isfinite(float(at)) and at >= self.time):
+            raise AdverbsError(f"set_plant: the time must be a number ≥ now ({self.time:g} s), got {at}")
+
+        def switch(t: float) -> None:
+            self.plant = on
+            self.log.append({"time": round(t, 9), "creature": "*", "command": "plant", "on": bool(on), "status": "ran"})
+
+        self.queue.push(at, switch, NORMAL, "plant")
+
     # ----- commands ----------------------------------------------------------------------------------
     def schedule(self, at: float, callback: Callable[[float], object], kind: str = NORMAL, name: str = "") -> None:
         """Queue ``callback(time)`` at simulation time ``at`` (an event of ``kind``: normal, sync or optional)."""
