@@ -39,6 +39,7 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/verbs.py
 	$(BIN)/python benchmarks/feet.py
 	$(BIN)/python benchmarks/graph.py
+	$(BIN)/python benchmarks/runtime.py
 
 clean:
 	rm -rf $(VENV) out .pytest_cache

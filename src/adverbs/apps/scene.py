@@ -146,7 +146,9 @@ def summary(sim: Simulation) -> list[str]:
                 continue
             if e["command"] == "transition":
                 transitions += 1
-                if e["from"] != e["to"] and (not verbs or verbs[-1] != e["to"]):
+                if not verbs:
+                    verbs.append(e["from"])
+                if e["from"] != e["to"] and verbs[-1] != e["to"]:
                     verbs.append(e["to"])
             elif e["status"] == "refused":
                 refused.append(f"{e['time']:g} s: {e['reason']}")
