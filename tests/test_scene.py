@@ -107,7 +107,7 @@ def test_cli_run_and_render(tmp_path, capsys):
         warnings.simplefilter("ignore", AdverbsWarning)
         assert main(["run", str(ROOT / "graphs" / "cmu.toml"), "--script", str(script), "--out", str(tmp_path / "o"), "--seed", "2"]) == 0
     out = capsys.readouterr()
-    assert "creature1 (cmu): run" in out.out and "refused at 1 s: graph 'cmu' has no verb 'fly'" in out.out
+    assert "creature1 (cmu): walk → run;" in out.out and "refused at 1 s: graph 'cmu' has no verb 'fly'" in out.out
     assert read_bvh(tmp_path / "o" / "creature1.bvh").num_frames == 60
     assert main(["render", str(tmp_path / "o" / "creature1.bvh"), "-o", str(tmp_path / "c.png"), "--panels", "3", "--camera", "side"]) == 0
     assert (tmp_path / "c.png").exists()
