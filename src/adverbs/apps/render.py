@@ -91,13 +91,8 @@ class _Painter:
     """Draws frames of figures into one matplotlib axes: its artists are made once and moved frame after frame."""
 
     def __init__(self, ax, figures: Sequence[_Figure], az: float, el: float, floor: float, trail: float):
-        from matplotlib.collections import LineCollection
-
         self.figures, self.floor, self.trail = figures, floor, trail
         self.right, self.up, self.eye = _basis(az, el)
-        self.grid = LineCollection([], colors="0.85", linewidths=0.6, zorder=0)
-        self.bones = LineCollection([], linewidths=2.2, capstyle="round", zorder=3)
-        self.ax = None
         self.attach(ax)
 
     def attach(self, ax) -> None:

@@ -125,15 +125,11 @@ def run_script(
     script.apply(sim)
     length = seconds or script.seconds or RUN_SECONDS
     update, close = _progress("running") if not (quiet or realtime) else (None, lambda: None)
-    started = time.perf_counter()
     try:
         sim.run(length, progress=update)
     finally:
         close()
-    took = time.perf_counter() - started
-    paths = sim.write(out)
-    sim.wall_seconds = took
-    return sim, paths
+    return sim, sim.write(out)
 
 
 def summary(sim: Simulation) -> list[str]:
@@ -152,10 +148,9 @@ def summary(sim: Simulation) -> list[str]:
                     verbs.append(e["to"])
             elif e["status"] == "refused":
                 refused.append(f"{e['time']:g} s: {e['reason']}")
-        start = c.clip().num_frames
-        lines.append(f"{c.name} ({c.graph.name}): {' → '.join(verbs) or c.verb}; {transitions} transitions, {start} frames")
+        lines.append(f"{c.name} ({c.graph.name}): {' → '.join(verbs) or c.verb}; {transitions} transitions, {sim.frames} frames")
         lines += [f"  refused at {r}" for r in refused]
-    rate = sim.frames / sim.wall_seconds if getattr(sim, "wall_seconds", 0) else float("nan")
+    rate = sim.frames / sim.wall_seconds if sim.wall_seconds else float("nan")
     lines.append(f"{sim.frames} frames of {sim.time:.1f} s at {sim.fps:g} fps, computed at {rate:.0f} frames/s ({sim.clock.__class__.__name__})")
     return lines
 
@@ -204,7 +199,7 @@ def demo(out: Path, script: Path = DEMO_SCRIPT) -> dict[str, Path]:
     finally:
         close()
     paths["filmstrip"] = render(clips, out / "demo.png", panels=8, size=(400, 360), split=True)
-    report = {"summary": summary(sim), "feet": _feet(sim), **sim.report()}
+    report = {"summary": summary(sim), "feet": _feet(sim, clips), **sim.report()}
     (out / "report.json").write_text(json.dumps(report, indent=1) + "\n")
     paths["report"] = out / "report.json"
     print()
@@ -218,15 +213,14 @@ def demo(out: Path, script: Path = DEMO_SCRIPT) -> dict[str, Path]:
     return paths
 
 
-def _feet(sim: Simulation) -> dict[str, str]:
+def _feet(sim: Simulation, clips: list) -> dict[str, str]:
     """For each creature: how low its toes went and how far held toes slid, measured on its recording."""
     import numpy as np
 
     from ..motion.contacts import find_contacts
 
     out = {}
-    for c in sim.creatures:
-        clip = c.clip()
+    for c, clip in zip(sim.creatures, clips):
         pos = clip.global_positions()
         contacts = find_contacts(clip)
         toes = [f.toe if f.toe is not None else f.ankle for f in contacts.feet]

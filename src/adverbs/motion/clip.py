@@ -104,13 +104,18 @@ class Clip:
         if not (np.isfinite(fps) and fps > 0):
             raise AdverbsError(f"fps must be a positive number, got {fps}")
         n = int(np.floor(self.duration * fps + 1e-9)) + 1
-        x = np.arange(n) * (self.fps / fps)
+        return self.at(np.arange(n) * (self.fps / fps), fps)
+
+    def at(self, positions: np.ndarray, fps: float | None = None) -> Clip:
+        """The motion at fractional frame indices ``positions (G,)`` (clipped to the clip), as a clip at ``fps``
+        (default this one's): slerp for rotations, linear for translations."""
+        x = np.clip(np.asarray(positions, dtype=float), 0.0, self.num_frames - 1.0)
         rot = quat.slerp_frames(self.rotations, x)
         i0 = np.minimum(np.floor(x).astype(int), max(self.num_frames - 2, 0))
         i1 = np.minimum(i0 + 1, self.num_frames - 1)
         u = (x - i0)[:, None, None]
         trans = (1.0 - u) * self.translations[i0] + u * self.translations[i1]
-        return self.replace(rotations=rot, translations=trans, fps=float(fps))
+        return self.replace(rotations=rot, translations=trans, fps=float(self.fps if fps is None else fps))
 
     def mirror(self, axis: int = 0) -> Clip:
         """Left/right mirror image on the same skeleton, reflected across the world plane ``axis = 0``.

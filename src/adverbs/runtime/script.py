@@ -169,21 +169,25 @@ def load_script(path: str | Path) -> Script:
     return Script(str(path), creatures, cues, seconds, [path.parent / g for g in graphs], fps, seed)
 
 
-def _tables(value, text, path, name) -> list[tuple[dict, int]]:
+def _tables(value, text, path, name, fields, what):
+    """Each ``[[name]]`` entry checked for unknown fields: ``(index, table, header line, where, at_line)``, where
+    ``at_line(key)`` is the line of that key in the entry (0 when unknown)."""
     if not isinstance(value, list) or not all(isinstance(t, dict) for t in value):
         raise ScriptError(path, _field_line(text, 0, name), name, f"must be tables ([[{name}]]), got {value!r}")
     lines = _headers(text, name)
-    return [(t, lines[i] if i < len(lines) else 0) for i, t in enumerate(value)]
+    for i, t in enumerate(value):
+        line = lines[i] if i < len(lines) else 0
+        where = f"{name}[{i}]"
+        at_line = lambda k, line=line: _field_line(text, line, k) if line else 0  # noqa: E731
+        for k in t:
+            if k not in fields:
+                raise ScriptError(path, at_line(k), f"{where}.{k}", f"unknown field; {what} has {', '.join(sorted(fields))}")
+        yield i, t, line, where, at_line
 
 
 def _creatures(value, text, path) -> list[CreatureSpec]:
     out: list[CreatureSpec] = []
-    for i, (t, line) in enumerate(_tables(value, text, path, "creatures")):
-        where = f"creatures[{i}]"
-        at_line = lambda k, line=line: _field_line(text, line, k) if line else 0  # noqa: E731
-        for k in t:
-            if k not in CREATURE_FIELDS:
-                raise ScriptError(path, at_line(k), f"{where}.{k}", f"unknown field; a creature has {', '.join(sorted(CREATURE_FIELDS))}")
+    for i, t, line, where, at_line in _tables(value, text, path, "creatures", CREATURE_FIELDS, "a creature"):
         name = t.get("name", f"creature{i + 1}")
         if not isinstance(name, str) or not name or not re.fullmatch(r"[\w.-]+", name):
             raise ScriptError(path, at_line("name"), f"{where}.name", f"must be a name of letters, digits, '_', '.' or '-', got {name!r}")
@@ -205,12 +209,7 @@ def _creatures(value, text, path) -> list[CreatureSpec]:
 def _cues(value, text, path, creatures: list[CreatureSpec]) -> list[CueSpec]:
     names = [c.name for c in creatures]
     out = []
-    for i, (t, line) in enumerate(_tables(value, text, path, "cues")):
-        where = f"cues[{i}]"
-        at_line = lambda k, line=line: _field_line(text, line, k) if line else 0  # noqa: E731
-        for k in t:
-            if k not in CUE_FIELDS:
-                raise ScriptError(path, at_line(k), f"{where}.{k}", f"unknown field; a cue has {', '.join(sorted(CUE_FIELDS))}")
+    for _, t, line, where, at_line in _tables(value, text, path, "cues", CUE_FIELDS, "a cue"):
         if "at" not in t:
             raise ScriptError(path, line, f"{where}.at", "missing: when the cue runs, in seconds")
         at = _number(t["at"], path, at_line("at"), f"{where}.at", 0.0, 24 * 3600)

@@ -38,7 +38,6 @@ import numpy as np
 from ..errors import AdverbsError, AdverbsWarning
 from ..graph.player import GraphFeet, GraphState, command, new_state, plant, planter, step
 from ..graph.structure import REACH, CommandRefused, Graph
-from ..kinematics import quat
 from ..kinematics.fk import forward_kinematics
 from ..kinematics.floor import FlatFloor, Floor
 from ..motion.clip import Clip
@@ -123,7 +122,7 @@ class Creature:
         """What it is doing, in words (a verb, or a transition and how far it has gone)."""
         g = self._group
         if g.state is None:
-            return f"{g.graph.verb_names[g.graph.verb_index(g.starts[self.index] or g.graph.start)]} (not started)"
+            return f"{self.verb} (not started)"
         return g.state.playing(self.index)
 
     @property
@@ -205,6 +204,7 @@ class Simulation:
         self.frame_times: list[float] = []  # when each frame was shown (simulation seconds)
         self.lags: list[float] = []  # how late each frame was shown (clock − its time; 0 on the virtual clock)
         self.costs: list[float] = []  # wall seconds each render took
+        self.wall_seconds = 0.0  # wall seconds spent in run(), all runs
         self.log: list[dict] = []  # the commands that ran or were refused, and the transitions started
         self._groups: dict[int, _Group] = {}
         self._creatures: list[Creature] = []
@@ -409,9 +409,12 @@ class Simulation:
         if self.clock.realtime:
             self.clock.start(self.time)
         self.queue.push(self.time + 1.0 / self.fps, self._render, NORMAL, "render")
+        started = time.perf_counter()
         try:
             run_events(self.queue, self.clock, end + 1e-9, self.processed)
-        finally:  # a frame left queued (the run was stopped by an error) is dropped: the next run queues its own
+        finally:
+            self.wall_seconds += time.perf_counter() - started
+            # a frame left queued (the run was stopped by an error) is dropped: the next run queues its own
             self.queue.discard("render")
             self.queue.discard("display")
         return self
@@ -489,16 +492,13 @@ class Simulation:
             )
         rot = np.stack([r[creature.index] for r, _ in g.recorded])
         trans = np.stack([tr[creature.index] for _, tr in g.recorded])
+        clip = Clip(g.graph.skeleton, rot, trans, self.fps, name=creature.name)
         times = np.asarray(self.frame_times[-len(g.recorded) :])
         steps = np.diff(times)
         if len(steps) and np.ptp(steps) > 1e-6 / self.fps:  # frames came unevenly (the wall clock): resample
             grid = np.arange(times[0], times[-1] + 1e-9, 1.0 / self.fps)
-            x = np.interp(grid, times, np.arange(len(times)))
-            rot = quat.slerp_frames(rot, x)
-            i0 = np.minimum(np.floor(x).astype(int), len(times) - 2)
-            u = (x - i0)[:, None, None]
-            trans = (1.0 - u) * trans[i0] + u * trans[i0 + 1]
-        return Clip(g.graph.skeleton, rot, trans, self.fps, name=creature.name)
+            clip = clip.at(np.interp(grid, times, np.arange(len(times))))
+        return clip
 
     def write(self, out: str | Path, formats: Sequence[str] = ("bvh",)) -> dict[str, Path]:
         """Write every creature's recording (``out/NAME.bvh``) and the log of what ran (``out/events.json``).
