@@ -19,7 +19,7 @@ What most users need is re-exported here, so ``import adverbs`` is enough.
 from .errors import AdverbsError, BVHError
 from .interp import AdverbInterpolator
 from .graph import CommandRefused, Cue, Graph, GraphSpecError, load_graph, perform
-from .io import format_bvh, parse_bvh, read_bvh, write_bvh
+from .io import format_bvh, parse_bvh, portable, read_bvh, read_glb, read_motion, write_bvh, write_glb, write_motion
 from .kinematics import FlatFloor, HeightMapFloor, LegChains, Skeleton, SlopeFloor, forward_kinematics, ik, quat
 from .motion import Clip, DofEncoding, cut_steps, find_contacts
 from .runtime import Creature, Simulation
@@ -86,11 +86,16 @@ __all__ = [
     "perform",
     "plant_feet",
     "plant_feet_many",
+    "portable",
     "quat",
     "read_bvh",
+    "read_glb",
+    "read_motion",
     "sample",
     "save_verb",
     "synthesize",
     "write_bvh",
+    "write_glb",
+    "write_motion",
 ]
 __version__ = "0.1.0"

@@ -1,16 +1,18 @@
 """The ``adverbs`` command line: how people and scripts drive the library.
 
     adverbs info FILE.bvh [--json]
-    adverbs convert IN.bvh OUT.bvh [--fps F] [--mirror] [--frames A:B]
+    adverbs convert IN.bvh|IN.glb OUT.bvh|OUT.glb [--portable] [--fps F] [--mirror] [--frames A:B]
     adverbs build SPEC.toml -o VERB
     adverbs describe VERB [--json]
     adverbs synth VERB --adverb NAME=VALUE ... [--cycles N | --duration S] [--fps F]
-                  [--no-ik] [--method M] [--clamp [MARGIN]] [--floor slope:DEGREES | FILE.npz] -o OUT.bvh
+                  [--no-ik] [--method M] [--clamp [MARGIN]] [--floor slope:DEGREES | FILE.npz]
+                  -o OUT.bvh|OUT.glb [--portable]
     adverbs evaluate VERB [--png PLOT.png] [--json]
     adverbs heldout [--data DIR]
-    adverbs graph GRAPH.toml [--describe [--json] | --plan FROM TO | --play SCRIPT -o OUT.bvh [--seconds S]
+    adverbs graph GRAPH.toml [--describe [--json] | --plan FROM TO | --play SCRIPT -o OUT.bvh|OUT.glb [--seconds S]
                   [--fps F] [--seed N] [--adverb NAME=VALUE ...] [--floor ...] [--start VERB]]
     adverbs run [GRAPH.toml ...] --script SCRIPT.toml --out DIR [--realtime] [--fps N] [--seed S] [--seconds S]
+                [--format bvh,glb] [--portable]
     adverbs render MOTION.bvh ... -o OUT.gif|OUT.mp4|OUT.png [--camera C] [--fps F] [--size WxH] [--fixed]
     adverbs demo [--out DIR]
 
@@ -30,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import AdverbsError, AdverbsWarning
-from ..io.bvh import read_bvh, write_bvh
+from ..io import motion_format, read_motion, write_motion
 from ..kinematics.floor import parse_floor
 from ..motion.clip import Clip
 from ..motion.contacts import find_contacts
@@ -132,6 +134,9 @@ def _non_negative(text: str) -> float:
     return _number(text, zero=True)
 
 
+PORTABLE_HELP = "a BVH with position channels on the root only, which every reader (three.js, pybvh) reads alike"
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="adverbs", description="Verbs and adverbs: controllable motion from examples."
@@ -142,9 +147,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("file", type=Path)
     p.add_argument("--json", action="store_true", help="print JSON instead of text")
 
-    p = sub.add_parser("convert", help="read a BVH file, transform it, write a BVH file")
-    p.add_argument("input", type=Path)
-    p.add_argument("output", type=Path)
+    p = sub.add_parser(
+        "convert", help="read a BVH or glTF (.glb) file, transform it, write BVH or glTF (by the extensions)",
+        description=(
+            "Read IN (.bvh, or a .glb with one skin and one animation), optionally cut, mirror or resample it, and "
+            "write OUT: .bvh in the input's channels, or with --portable the BVH every reader reads alike (position "
+            "channels on the root only; three.js, pybvh, Blender); .glb for engines and the web (Unity, Unreal, "
+            "Godot, Blender, three.js)."
+        ),
+    )  # fmt: skip
+    p.add_argument("input", type=Path, metavar="IN")
+    p.add_argument("output", type=Path, metavar="OUT")
+    p.add_argument("--portable", action="store_true", help=PORTABLE_HELP)
     p.add_argument("--frames", type=_frame_range, metavar="A:B", help="keep frames A:B (before other changes)")
     p.add_argument("--mirror", action="store_true", help="swap left and right")
     p.add_argument("--fps", type=_positive, help="resample to this frame rate")
@@ -156,7 +170,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("verb", type=Path)
     p.add_argument("--json", action="store_true", help="print JSON instead of text")
 
-    p = sub.add_parser("synth", help="motion at an adverb point, written as BVH")
+    p = sub.add_parser("synth", help="motion at an adverb point, written as BVH or glTF (.glb)")
     p.add_argument("verb", type=Path)
     p.add_argument(
         "--adverb",
@@ -183,7 +197,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--floor", default=None, metavar="slope:DEGREES|FILE",
         help="the ground: flat (default, the verb's floor), slope:DEGREES rising along +Z, or a height map .npz",
     )  # fmt: skip
-    p.add_argument("-o", "--output", type=Path, required=True)
+    p.add_argument("-o", "--output", type=Path, required=True, metavar="OUT.bvh|OUT.glb")
+    p.add_argument("--portable", action="store_true", help=PORTABLE_HELP)
 
     p = sub.add_parser("evaluate", help="leave-one-out against other interpolators, and adverb obedience")
     p.add_argument("verb", type=Path)
@@ -218,7 +233,8 @@ def build_parser() -> argparse.ArgumentParser:
     action.add_argument("--plan", nargs=2, metavar=("FROM", "TO"), help="the fewest transitions from FROM to TO")
     action.add_argument("--play", type=_script, metavar="SCRIPT", help="play a script of cues (see below); needs -o")
     p.add_argument("--json", action="store_true", help="with --describe: print JSON instead of text")
-    p.add_argument("-o", "--output", type=Path, help="with --play: the BVH file to write (the planted motion)")
+    p.add_argument("-o", "--output", type=Path, help="with --play: the .bvh or .glb file to write (the planted motion)")
+    p.add_argument("--portable", action="store_true", help="with --play and a .bvh: " + PORTABLE_HELP)
     p.add_argument("--seconds", type=_positive, help=f"with --play: how long to play (default {GRAPH_SECONDS:g})")
     p.add_argument("--fps", type=_positive, help=f"with --play: frame rate (default {GRAPH_FPS:g})")
     p.add_argument("--seed", type=_seed, help="with --play: seeds the transitions drawn by likelihood (default 0)")
@@ -486,8 +502,7 @@ def _graph(args: argparse.Namespace) -> None:
         )  # fmt: skip
         for when, reason in perf.refused:
             print(f"adverbs: warning: command at {when:g} s refused: {reason}", file=sys.stderr)
-        args.output.parent.mkdir(parents=True, exist_ok=True)
-        write_bvh(perf.planted, args.output)
+        write_motion(perf.planted, args.output, portable=args.portable)
         print(_play_line(graph, perf, floor, args.output))
     else:
         d = graph.describe()
@@ -498,25 +513,29 @@ def _graph(args: argparse.Namespace) -> None:
 
 
 def _run(args: argparse.Namespace) -> None:
+    output = getattr(args, "output", None)
+    if args.command in ("convert", "synth", "graph") and output is not None:
+        motion_format(output)  # an output this cannot write is refused before any work
+        if args.portable and motion_format(output) != ".bvh":
+            raise AdverbsError(f"--portable is a kind of BVH, but {output} is not a .bvh file")
     if args.command in ("run", "render", "demo"):
         scene.main(args)
     elif args.command == "info":
-        clip = read_bvh(args.file)
+        clip = read_motion(args.file)
         report = info(clip, args.file)
         if args.json:
             print(json.dumps(report, indent=2))
         else:
             _print_info(report)
     elif args.command == "convert":
-        clip = read_bvh(args.input)
+        clip = read_motion(args.input)
         if args.frames is not None:
             clip = clip.frames(*args.frames)
         if args.mirror:
             clip = clip.mirror()
         if args.fps is not None:
             clip = clip.resample(args.fps)
-        args.output.parent.mkdir(parents=True, exist_ok=True)
-        write_bvh(clip, args.output)
+        write_motion(clip, args.output, portable=args.portable)
         print(f"wrote {args.output}: {clip.num_frames} frames at {clip.fps:g} fps")
     elif args.command == "build":
         from ..verb.fit import build_from_spec
@@ -570,8 +589,7 @@ def _run(args: argparse.Namespace) -> None:
                 print(f"adverbs: warning: {warning}", file=sys.stderr)
         elif not verb.constraints:
             feet = "the verb has no constraints"
-        args.output.parent.mkdir(parents=True, exist_ok=True)
-        write_bvh(clip, args.output)
+        write_motion(clip, args.output, portable=args.portable)
         values = ", ".join(f"{n}={v:g}" for n, v in zip(verb.adverb_names, p)) or "its one example"
         how = "" if args.method == "ours" else f" by {args.method}"
         print(f"wrote {args.output}: {verb.name}{how} at {values}; {clip.num_frames} frames, cycle {k[-1]:.3f} s; {feet}")

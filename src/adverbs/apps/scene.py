@@ -15,7 +15,7 @@ from pathlib import Path
 from ..errors import AdverbsError, AdverbsWarning
 from ..graph import load_graph
 from ..graph.structure import Graph
-from ..io.bvh import read_bvh
+from ..io import read_motion
 from ..kinematics.floor import parse_floor
 from ..runtime.script import load_script
 from ..runtime.simulation import Simulation
@@ -29,11 +29,11 @@ RUN_SECONDS, RUN_FPS = 10.0, 30.0
 def add_parsers(sub, positive, seed) -> None:
     """The ``run``, ``render`` and ``demo`` sub-commands."""
     p = sub.add_parser(
-        "run", help="run creatures through verb graphs following a timed script; write BVH per creature and a log",
+        "run", help="run creatures through verb graphs following a timed script; write BVH or glTF per creature and a log",
         description=(
             "Load the verb graphs (GRAPH, and any the script lists), add the script's creatures, and run them on "
             "the virtual clock (as fast as the machine goes, the same every time) or with --realtime on the wall "
-            "clock; write OUT/NAME.bvh per creature and OUT/events.json (the commands, transitions and refusals). "
+            "clock; write OUT/NAME.bvh (or .glb, --format) per creature and OUT/events.json (the commands, transitions and refusals). "
             "A cue the graph refuses (an unknown verb or adverb, a value out of range) is reported and the run "
             "goes on; a malformed script is refused before the run, naming its line."
         ),
@@ -48,6 +48,11 @@ def add_parsers(sub, positive, seed) -> None:
     p.add_argument("--seconds", type=positive, help=f"how long to run (default: the script's, else {RUN_SECONDS:g})")
     p.add_argument("--no-ik", action="store_true", help="do not plant the feet")
     p.add_argument("--floor", metavar="slope:DEGREES|flat:LEVEL|FILE", help="the ground feet are planted on (default flat at 0)")
+    p.add_argument(
+        "--format", type=_formats, default=("bvh",), metavar="bvh,glb",
+        help="what to write per creature: bvh, glb (glTF 2.0 binary, for engines and the web) or both (default bvh)",
+    )  # fmt: skip
+    p.add_argument("--portable", action="store_true", help="BVH with position channels on the root only (three.js, pybvh)")
 
     p = sub.add_parser(
         "render", help="draw BVH motion as bones: an animated GIF or MP4, or a PNG filmstrip",
@@ -73,11 +78,18 @@ def add_parsers(sub, positive, seed) -> None:
             "Build the default verbs from the shipped capture, assemble the Bandai and CMU graphs and play the "
             "scenario of scripts/demo.toml (a Bandai creature stands, walks happily turning left, runs, walks "
             "sadly, reaches, bows and stands; a CMU creature walks, jogs and turns), with feet planted. Writes a "
-            "BVH per creature, events.json, an animated picture, a filmstrip and a report, and prints where."
+            "BVH and a glTF file (.glb) per creature, events.json, an animated picture, a filmstrip and a report, and prints where."
         ),
     )  # fmt: skip
     p.add_argument("--out", type=Path, default=Path("out/demo"), help="where to write (default out/demo)")
     p.add_argument("--script", type=Path, default=DEMO_SCRIPT, help="the scenario (default scripts/demo.toml)")
+
+
+def _formats(text: str) -> tuple[str, ...]:
+    kinds = tuple(k.strip().lower() for k in text.split(","))
+    if not kinds or any(k not in ("bvh", "glb") for k in kinds):
+        raise argparse.ArgumentTypeError(f"{text!r}: give bvh, glb or bvh,glb")
+    return kinds
 
 
 def _progress(what: str):
@@ -114,6 +126,7 @@ def _graphs(paths: Sequence[Path], progress: bool) -> list[Graph]:
 def run_script(
     graphs: Sequence[Path], script_path: Path, out: Path, realtime: bool = False, fps: float | None = None,
     seed: int | None = None, seconds: float | None = None, plant: bool = True, floor=None, quiet: bool = False,
+    formats: Sequence[str] = ("bvh",), portable: bool = False,
 ) -> tuple[Simulation, dict]:  # fmt: skip
     """Run a script; write the recordings and the log to ``out``. Returns the simulation and the paths written."""
     script = load_script(script_path)  # a malformed script stops here, before anything is built
@@ -129,7 +142,7 @@ def run_script(
         sim.run(length, progress=update)
     finally:
         close()
-    return sim, sim.write(out)
+    return sim, sim.write(out, formats, portable)
 
 
 def summary(sim: Simulation) -> list[str]:
@@ -166,13 +179,16 @@ def _size(text: str) -> tuple[int, int]:
 def main(args: argparse.Namespace) -> None:
     if args.command == "run":
         floor = parse_floor(args.floor) if args.floor else None
-        sim, paths = run_script(args.graphs, args.script, args.out, args.realtime, args.fps, args.seed, args.seconds, not args.no_ik, floor)
+        sim, paths = run_script(
+            args.graphs, args.script, args.out, args.realtime, args.fps, args.seed, args.seconds, not args.no_ik, floor,
+            formats=args.format, portable=args.portable,
+        )  # fmt: skip
         for line in summary(sim):
             print(line)
         for name, p in paths.items():
             print(f"wrote {p}" + ("" if name == "events" else f" ({name})"))
     elif args.command == "render":
-        clips = [read_bvh(p) for p in args.motions]
+        clips = [read_motion(p) for p in args.motions]
         update, close = _progress("drawing")
         try:
             out = render(
@@ -191,7 +207,7 @@ def demo(out: Path, script: Path = DEMO_SCRIPT) -> dict[str, Path]:
     started = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", AdverbsWarning)  # the verbs' build notes: the report says what matters
-        sim, paths = run_script([], script, out)
+        sim, paths = run_script([], script, out, formats=("bvh", "glb"))
     clips = [c.clip() for c in sim.creatures]
     update, close = _progress("drawing")
     try:

@@ -18,6 +18,7 @@ from ..errors import AdverbsError, BVHError
 from ..kinematics import quat
 from ..kinematics.skeleton import POSITION_CHANNELS, ROTATION_CHANNELS, Skeleton
 from ..motion.clip import Clip
+from .files import write_atomic
 
 UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254, "ft": 0.3048}
 _CHANNELS = POSITION_CHANNELS + ROTATION_CHANNELS
@@ -341,14 +342,22 @@ def _channels_to_arrays(
 # ----- writing -------------------------------------------------------------------------------
 
 
-def write_bvh(clip: Clip, path: str | Path, precision: int = 9) -> None:
-    """Write ``clip`` as BVH in its skeleton's channels and unit, ``precision`` significant digits."""
-    path = Path(path)
-    path.write_text(format_bvh(clip, precision), encoding="utf-8")
+def write_bvh(clip: Clip, path: str | Path, precision: int = 9, portable: bool = False) -> None:
+    """Write ``clip`` as BVH in its skeleton's channels and unit, ``precision`` significant digits; ``portable``: with
+    position channels on the root only, which every reader reads alike (see :mod:`adverbs.io.portable`).
+
+    The file is written whole or not at all: a failed write leaves what was at ``path`` as it was.
+    """
+    write_atomic(path, format_bvh(clip, precision, portable).encode("utf-8"))
 
 
-def format_bvh(clip: Clip, precision: int = 9) -> str:
-    """The BVH text of ``clip``; Euler angles are unwrapped so every channel is continuous."""
+def format_bvh(clip: Clip, precision: int = 9, portable: bool = False) -> str:
+    """The BVH text of ``clip``; Euler angles are unwrapped so every channel is continuous. ``portable``: see
+    :func:`write_bvh`."""
+    if portable:
+        from .portable import portable as make_portable
+
+        clip = make_portable(clip).clip
     skel = clip.skeleton
     out = io.StringIO()
     out.write("HIERARCHY\n")

@@ -500,18 +500,24 @@ class Simulation:
             clip = clip.at(np.interp(grid, times, np.arange(len(times))))
         return clip
 
-    def write(self, out: str | Path, formats: Sequence[str] = ("bvh",)) -> dict[str, Path]:
-        """Write every creature's recording (``out/NAME.bvh``) and the log of what ran (``out/events.json``).
-        Returns the paths by creature name (and ``"events"``)."""
-        from ..io.bvh import write_bvh
+    def write(self, out: str | Path, formats: Sequence[str] = ("bvh",), portable: bool = False) -> dict[str, Path]:
+        """Write every creature's recording in each of ``formats`` (``"bvh"``: ``out/NAME.bvh``, portable if asked —
+        position channels on the root only; ``"glb"``: ``out/NAME.glb``) and the log of what ran (``out/events.json``).
+        Returns the paths by creature name (the first format's), ``NAME.glb`` and so on for the others, and ``"events"``."""
+        from ..io import write_motion
 
+        kinds = [str(f).lower().lstrip(".") for f in formats]
+        bad = [f for f in kinds if f not in ("bvh", "glb")]
+        if bad or not kinds:
+            raise AdverbsError(f"formats {list(formats)!r}: each must be 'bvh' or 'glb'")
         out = Path(out)
         out.mkdir(parents=True, exist_ok=True)
         paths: dict[str, Path] = {}
         for c in self._creatures:
-            p = out / f"{c.name}.bvh"
-            write_bvh(c.clip(), p)
-            paths[c.name] = p
+            clip = c.clip()
+            for k, kind in enumerate(dict.fromkeys(kinds)):
+                p = write_motion(clip, out / f"{c.name}.{kind}", portable=portable)
+                paths[c.name if k == 0 else f"{c.name}.{kind}"] = p
         events = out / "events.json"
         events.write_text(json.dumps(self.report(), indent=1) + "\n")
         paths["events"] = events
