@@ -3,6 +3,8 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
+# The third-party loaders our exported files are checked with (three.js, the Khronos glTF validator), from npm.
+JS := tests/js/node_modules/.package-lock.json
 
 .PHONY: demo examples test bench lint clean
 
@@ -31,7 +33,11 @@ examples: $(STAMP)
 	$(BIN)/adverbs graph graphs/bandai.toml --describe
 	$(BIN)/adverbs graph graphs/bandai.toml --play "1:walk,5:turn=30,8:run,12:walk,15:idle,17:bow,25:reach" --seconds 30 --adverb valence=0.5 -o out/bandai_graph.bvh
 
-test: $(STAMP)
+$(JS): tests/js/package.json tests/js/package-lock.json
+	@if command -v npm >/dev/null 2>&1; then cd tests/js && npm ci --no-audit --no-fund --loglevel=error; \
+	else echo "npm not found: the three.js and glTF validator checks will say they were skipped"; fi
+
+test: $(STAMP) $(JS)
 	$(BIN)/python -m pytest -q -n auto
 
 bench: $(STAMP)
@@ -42,4 +48,4 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/runtime.py
 
 clean:
-	rm -rf $(VENV) out .pytest_cache
+	rm -rf $(VENV) out .pytest_cache tests/js/node_modules
