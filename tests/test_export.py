@@ -343,3 +343,39 @@ def test_position_channels_stay_where_the_original_had_them_without_portable(tmp
     back = read_bvh(tmp_path / "a.bvh")
     assert back.skeleton.channels == clip.skeleton.channels
     assert all(set(POSITION_CHANNELS) <= set(c) for c in back.skeleton.channels)
+
+
+def test_synth_writes_glb_and_portable_bvh_of_the_same_motion(verbs, tmp_path):
+    from adverbs import save_verb
+
+    verb, _ = verbs["bandai_styled_walk"]
+    save_verb(verb, tmp_path / "walk.verb")
+    args = ["--adverb", "valence=0.5", "--adverb", "turn=20", "--cycles", "2"]
+    for name, extra in (("plain.bvh", []), ("portable.bvh", ["--portable"]), ("walk.glb", [])):
+        r = run("synth", tmp_path / "walk.verb", *args, "-o", tmp_path / name, *extra)
+        assert r.returncode == 0, r.stderr
+    plain = read_bvh(tmp_path / "plain.bvh")
+    portable_clip = read_bvh(tmp_path / "portable.bvh")
+    assert portable_clip.skeleton.names[0] == "Hips" and not portable_clip.skeleton.has_position_channels(1)
+    theirs, ours = _kept(plain, list(portable_clip.skeleton.names))
+    np.testing.assert_allclose(portable_clip.global_positions()[:, theirs], plain.global_positions()[:, ours], rtol=0, atol=1e-7)  # fmt: skip
+    np.testing.assert_allclose(read_glb(tmp_path / "walk.glb").global_positions(), plain.global_positions(), rtol=0, atol=2e-6)  # fmt: skip
+
+
+@needs_node
+def test_the_recorders_glb_passes_the_validator_and_three_js(tmp_path):
+    from adverbs import Simulation, load_graph
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", AdverbsWarning)
+        graph = load_graph(Path(__file__).resolve().parent.parent / "graphs" / "cmu.toml")
+    sim = Simulation(graph, fps=24, seed=5)
+    c = sim.add_creature(at=(-3.0, 1.0), heading=-60.0, name="jogger", adverbs={"turn": 40.0})
+    c.perform("run", at=0.5)
+    sim.run(4.0)
+    paths = sim.write(tmp_path, formats=("glb",))
+    (report,) = validate(paths["jogger"])
+    assert report["errors"] == 0 and report["warnings"] == 0, report
+    got = three_gltf(paths["jogger"])
+    assert got["fps"] == 24 and got["frames"] == sim.frames
+    np.testing.assert_allclose(got["positions"], c.clip().global_positions(), rtol=0, atol=1e-5)
