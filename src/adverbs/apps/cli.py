@@ -15,6 +15,7 @@
                 [--format bvh,glb] [--portable]
     adverbs render MOTION.bvh ... -o OUT.gif|OUT.mp4|OUT.png [--camera C] [--fps F] [--size WxH] [--fixed]
     adverbs demo [--out DIR]
+    adverbs view [GRAPH.toml] [--creatures N] [--host H] [--port P] [--fps F] [--seed S] [--no-ik]
 
 Errors in the input print one line naming the file and line and exit with status 1.
 """
@@ -518,7 +519,7 @@ def _run(args: argparse.Namespace) -> None:
         motion_format(output)  # an output this cannot write is refused before any work
         if args.portable and motion_format(output) != ".bvh":
             raise AdverbsError(f"--portable is a kind of BVH, but {output} is not a .bvh file")
-    if args.command in ("run", "render", "demo"):
+    if args.command in ("run", "render", "demo", "view"):
         scene.main(args)
     elif args.command == "info":
         clip = read_motion(args.file)

@@ -82,6 +82,23 @@ def add_parsers(sub, positive, seed) -> None:
         ),
     )  # fmt: skip
     p.add_argument("--out", type=Path, default=Path("out/demo"), help="where to write (default out/demo)")
+
+    p = sub.add_parser(
+        "view", help="a live web page: creatures on a graph, a slider per adverb, a button per verb",
+        description=(
+            "Serve a web page (viser) where creatures play a verb graph on the real-time clock: bones on a ground "
+            "grid, planted feet marked, root trails; a slider per adverb (the examples' range and the graph's "
+            "margin), a button per verb (through the planner), play/pause, speed, planted feet on/off, a command "
+            "line (run, valence=0.5), what each creature plays and the frame rate. Open the printed address."
+        ),
+    )  # fmt: skip
+    p.add_argument("graph", type=Path, nargs="?", metavar="GRAPH", help="a graph spec (default graphs/bandai.toml)")
+    p.add_argument("--creatures", type=int, default=1, help="how many creatures (default 1)")
+    p.add_argument("--host", default="127.0.0.1", help="address to serve on (default 127.0.0.1: this machine only)")
+    p.add_argument("--port", type=int, default=8080, help="port (default 8080)")
+    p.add_argument("--fps", type=positive, help="the frame rate to aim at (default 60; it follows the load)")
+    p.add_argument("--seed", type=seed, help="seeds the transitions drawn by likelihood (default 0)")
+    p.add_argument("--no-ik", action="store_true", help="start with the feet not planted")
     p.add_argument("--script", type=Path, default=DEMO_SCRIPT, help="the scenario (default scripts/demo.toml)")
 
 
@@ -200,6 +217,26 @@ def main(args: argparse.Namespace) -> None:
         print(f"wrote {out}")
     elif args.command == "demo":
         demo(args.out, args.script)
+    elif args.command == "view":
+        view(args)
+
+
+def view(args: argparse.Namespace) -> None:
+    """``adverbs view``: serve the page until interrupted."""
+    from .viewer import Viewer, load_for_view
+
+    if args.host not in ("127.0.0.1", "localhost", "::1"):
+        print(f"adverbs: warning: serving on {args.host}: anyone who can reach this machine can open the page", file=sys.stderr)
+    graphs = load_for_view(args.graph)
+    viewer = Viewer(graphs, args.creatures, args.host, args.port, args.fps or 60.0, args.seed or 0, not args.no_ik).start()
+    print(f"open {viewer.url} (Ctrl-C stops)", flush=True)
+    try:
+        while True:
+            time.sleep(1.0)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        viewer.stop()
 
 
 def demo(out: Path, script: Path = DEMO_SCRIPT) -> dict[str, Path]:

@@ -153,7 +153,7 @@ class Creature:
     def positions(self) -> np.ndarray:
         """World joint positions ``(J, 3)`` of the last frame."""
         rot, trans = self.pose
-        _, pos = forward_kinematics(self.graph.skeleton.parents, rot, trans)
+        pos, _ = forward_kinematics(self.graph.skeleton.parents, rot, trans)
         return pos
 
     def clip(self) -> Clip:
