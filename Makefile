@@ -46,6 +46,7 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/feet.py
 	$(BIN)/python benchmarks/graph.py
 	$(BIN)/python benchmarks/runtime.py
+	$(BIN)/python benchmarks/viewer.py
 
 clean:
 	rm -rf $(VENV) out .pytest_cache tests/js/node_modules

@@ -162,6 +162,10 @@ def test_same_script_and_seed_give_identical_bvh(tmp_path, cmu):
     assert clip.num_frames == 180 and clip.fps == 30.0
     ran = [e for e in sim.log if e["command"] == "perform"]
     assert [(e["time"], e["verb"], e["status"]) for e in ran] == [(0.5, "run", "ran"), (4.0, "walk", "ran")]
+    # What a creature reports of its last frame is that frame's world joint positions.
+    a = sim.creature("a")
+    assert a.positions().shape == (clip.skeleton.num_joints, 3)
+    np.testing.assert_allclose(a.positions(), a.clip().global_positions()[-1], rtol=0, atol=1e-9)
 
 
 def test_wandering_creatures_follow_their_seed(cmu):
