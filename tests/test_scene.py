@@ -122,7 +122,7 @@ def test_cli_run_and_render(tmp_path, capsys):
 def test_demo_writes_its_files(tmp_path, capsys):
     assert main(["demo", "--out", str(tmp_path)]) == 0
     printed = capsys.readouterr().out
-    for name in ("bandai.bvh", "cmu.bvh", "events.json", "demo.gif", "demo.png", "report.json"):
+    for name in ("bandai.bvh", "cmu.bvh", "bandai.glb", "cmu.glb", "events.json", "demo.gif", "demo.png", "report.json"):
         assert (tmp_path / name).stat().st_size > 0 and str(tmp_path / name) in printed
     report = json.loads((tmp_path / "report.json").read_text())
     played = report["summary"][0]

@@ -9,6 +9,7 @@
                   -o OUT.bvh|OUT.glb [--portable]
     adverbs evaluate VERB [--png PLOT.png] [--json]
     adverbs heldout [--data DIR]
+    adverbs figure VERB --axes A B -o OUT.png [--kind poses|space] [--size N] [--example K]
     adverbs graph GRAPH.toml [--describe [--json] | --plan FROM TO | --play SCRIPT -o OUT.bvh|OUT.glb [--seconds S]
                   [--fps F] [--seed N] [--adverb NAME=VALUE ...] [--floor ...] [--start VERB]]
     adverbs run [GRAPH.toml ...] --script SCRIPT.toml --out DIR [--realtime] [--fps N] [--seed S] [--seconds S]
@@ -205,6 +206,21 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("verb", type=Path)
     p.add_argument("--png", type=Path, help="also plot to this PNG file")
     p.add_argument("--json", action="store_true", help="print JSON instead of tables")
+
+    p = sub.add_parser(
+        "figure", help="figures of a verb's adverb space: a grid of poses, or one example's weight as a heat map",
+        description=(
+            "Draw a verb (a built .verb file, or a spec .toml, built first) across two of its adverbs: --kind poses "
+            "(default) a grid of poses with the examples over it in another colour, like the paper's Figures 3-4; "
+            "--kind space the examples as points with one example's cardinal weight as a heat map."
+        ),
+    )  # fmt: skip
+    p.add_argument("verb", type=Path, metavar="VERB")
+    p.add_argument("--axes", nargs=2, required=True, metavar=("A", "B"), help="the two adverbs across the figure")
+    p.add_argument("--kind", default="poses", choices=("poses", "space"))
+    p.add_argument("--size", type=int, default=5, help="poses along each axis (default 5)")
+    p.add_argument("--example", type=int, default=0, help="with --kind space: whose weight (default the first example)")
+    p.add_argument("-o", "--output", type=Path, required=True, metavar="OUT.png")
 
     p = sub.add_parser("heldout", help="predict held-out takes of the Bandai dataset-2 classes from the others")
     p.add_argument("--data", type=Path, default=DATA, help="folder of the Bandai BVH files (default: the shipped ones)")
@@ -596,6 +612,16 @@ def _run(args: argparse.Namespace) -> None:
         print(f"wrote {args.output}: {verb.name}{how} at {values}; {clip.num_frames} frames, cycle {k[-1]:.3f} s; {feet}")
     elif args.command == "graph":
         _graph(args)
+    elif args.command == "figure":
+        from .figures import figure
+
+        if args.verb.suffix.lower() == ".toml":
+            from ..verb.fit import build_from_spec
+
+            verb = build_from_spec(args.verb)
+        else:
+            verb = load_verb(args.verb)
+        print(f"wrote {figure(verb, tuple(args.axes), args.output, args.kind, args.size, args.example)}")
     elif args.command == "heldout":
         print(held_out(data=args.data).table())
     elif args.command == "evaluate":

@@ -82,6 +82,7 @@ def add_parsers(sub, positive, seed) -> None:
         ),
     )  # fmt: skip
     p.add_argument("--out", type=Path, default=Path("out/demo"), help="where to write (default out/demo)")
+    p.add_argument("--script", type=Path, default=DEMO_SCRIPT, help="the scenario (default scripts/demo.toml)")
 
     p = sub.add_parser(
         "view", help="a live web page: creatures on a graph, a slider per adverb, a button per verb",
@@ -99,7 +100,6 @@ def add_parsers(sub, positive, seed) -> None:
     p.add_argument("--fps", type=positive, help="the frame rate to aim at (default 60; it follows the load)")
     p.add_argument("--seed", type=seed, help="seeds the transitions drawn by likelihood (default 0)")
     p.add_argument("--no-ik", action="store_true", help="start with the feet not planted")
-    p.add_argument("--script", type=Path, default=DEMO_SCRIPT, help="the scenario (default scripts/demo.toml)")
 
 
 def _formats(text: str) -> tuple[str, ...]:

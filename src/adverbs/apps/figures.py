@@ -1,0 +1,117 @@
+"""Figures of a verb's adverb space, like the paper's: ``adverbs figure VERB --axes A B -o out.png``.
+
+* ``--kind poses`` (default): a grid of poses sampled across two adverbs (the others at the examples' mean), each
+  drawn where its adverbs put it, seen from the side (facing right), the examples' own poses over them in another
+  colour (the paper's Figures 3–4). The pose is the verb's at its middle keytime (a reach at its peak).
+* ``--kind space``: the examples as points in the two adverbs, with one example's cardinal weight as a heat map —
+  1 at that example, 0 at the others, and how far its influence reaches between and beyond them.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import AdverbsError
+from ..kinematics.fk import forward_kinematics
+from ..verb.tables import Verb
+
+KINDS = ("poses", "space")
+EXAMPLE_COLOR, GRID_COLOR = "#d9480f", "#1c7ed6"
+
+
+def _axes(verb: Verb, axes: tuple[str, str]) -> tuple[int, int]:
+    if len(axes) != 2 or axes[0] == axes[1]:
+        raise AdverbsError(f"--axes needs two different adverbs, got {list(axes)}")
+    for a in axes:
+        if a not in verb.adverb_names:
+            raise AdverbsError(f"verb {verb.name!r} has no adverb {a!r}; its adverbs are {', '.join(verb.adverb_names)}")
+    return verb.adverb_names.index(axes[0]), verb.adverb_names.index(axes[1])
+
+
+def _grid(verb: Verb, ia: int, ib: int, n: int, margin: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Adverb points ``(n·n, A)`` over the examples' span of adverbs ``ia`` and ``ib`` (widened by ``margin`` of it),
+    the others at the examples' mean; and the two axes' values."""
+    lo, hi = verb.points.min(axis=0), verb.points.max(axis=0)
+    span = hi - lo
+    a = np.linspace(lo[ia] - margin * span[ia], hi[ia] + margin * span[ia], n)
+    b = np.linspace(lo[ib] - margin * span[ib], hi[ib] + margin * span[ib], n)
+    points = np.tile(verb.points.mean(axis=0), (n * n, 1))
+    aa, bb = np.meshgrid(a, b)
+    points[:, ia], points[:, ib] = aa.ravel(), bb.ravel()
+    return points, a, b
+
+
+def _poses(verb: Verb, points: np.ndarray) -> np.ndarray:
+    """World joint positions ``(Q, J, 3)`` at adverb points ``points (Q, A)``, at the verb's middle keytime, the root
+    at the origin facing +Z."""
+    g = float(verb.generic_keytimes[len(verb.generic_keytimes) // 2])
+    dofs = verb.dofs(points, np.full(len(points), g))
+    rot, trans = verb.encoding.decode_pose(dofs, np.zeros((len(points), 3)))
+    return forward_kinematics(verb.skeleton.parents, rot, trans)[0]
+
+
+def figure(verb: Verb, axes: tuple[str, str], output: str | Path, kind: str = "poses", n: int = 5, example: int = 0) -> Path:
+    """Draw ``kind`` (see the module) over adverbs ``axes`` of ``verb`` to ``output`` (.png, .pdf or .svg)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    if kind not in KINDS:
+        raise AdverbsError(f"--kind {kind!r}: use one of {', '.join(KINDS)}")
+    if not (isinstance(n, int) and 2 <= n <= 12):
+        raise AdverbsError(f"--size must be a whole number from 2 to 12, got {n!r}")
+    ia, ib = _axes(verb, axes)
+    output = Path(output)
+    fig, ax = plt.subplots(figsize=(8, 7))
+    if kind == "poses":
+        points, a, b = _grid(verb, ia, ib, n)
+        da, db = (a[1] - a[0]) or 1.0, (b[1] - b[0]) or 1.0
+        grid, examples = _poses(verb, points), _poses(verb, verb.points)
+        height = np.ptp(np.concatenate([grid, examples])[..., 1])
+        scale = 0.85 / height  # square cells, one per grid point: a figure is 0.85 of a cell tall, true to shape
+        parents = verb.skeleton.parents
+        body = verb.skeleton.body_root()
+
+        def draw(pos: np.ndarray, at: np.ndarray, color: str, width: float) -> None:
+            cell = ((at[0] - a[0]) / da, (at[1] - b[0]) / db)
+            x = (pos[:, 2] - pos[body, 2]) * scale + cell[0]  # side view: forward (+z) to the right, y up
+            y = (pos[:, 1] - pos[:, 1].min() - 0.5 * height) * scale + cell[1]
+            for j in range(1, len(parents)):
+                ax.plot([x[parents[j]], x[j]], [y[parents[j]], y[j]], color=color, lw=width, solid_capstyle="round")
+
+        for pos, p in zip(grid, points):
+            draw(pos, p[[ia, ib]], GRID_COLOR, 1.2)
+        for pos, p in zip(examples, verb.points):
+            draw(pos, p[[ia, ib]], EXAMPLE_COLOR, 1.0)
+        ax.set_aspect("equal")
+        ax.set_xlim(-0.6, n - 0.4)
+        ax.set_ylim(-0.6, n - 0.4)
+        ax.set_xticks(range(n), [f"{x:.3g}" for x in a])
+        ax.set_yticks(range(n), [f"{x:.3g}" for x in b])
+        ax.set_title(f"{verb.name}: poses across {axes[0]} and {axes[1]} (blue), the examples (orange)")
+    else:
+        if not 0 <= example < len(verb.examples):
+            raise AdverbsError(f"--example {example}: the verb has examples 0 to {len(verb.examples) - 1}")
+        points, a, b = _grid(verb, ia, ib, 60, margin=0.25)
+        w = verb.weights(points)[:, example].reshape(len(b), len(a))
+        limit = max(1.0, float(np.abs(w).max()))
+        mesh = ax.pcolormesh(a, b, w, cmap="RdBu_r", vmin=-limit, vmax=limit, shading="auto")
+        fig.colorbar(mesh, ax=ax, label=f"weight of example {verb.examples[example].name!r}")
+        ax.scatter(verb.points[:, ia], verb.points[:, ib], c="k", s=18, zorder=3)
+        ax.scatter(verb.points[example, ia], verb.points[example, ib], facecolors="none", edgecolors="k", s=140, zorder=3)
+        ax.set_title(f"{verb.name}: the examples in adverb space, one example's cardinal weight")
+    ax.set_xlabel(axes[0])
+    ax.set_ylabel(axes[1])
+    fig.tight_layout()
+    output.parent.mkdir(parents=True, exist_ok=True)
+    tmp = output.with_name(f".{output.name}.part{output.suffix}")
+    try:
+        fig.savefig(tmp, dpi=110)
+        tmp.replace(output)
+    finally:
+        tmp.unlink(missing_ok=True)
+        plt.close(fig)
+    return output
