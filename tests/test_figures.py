@@ -45,8 +45,18 @@ def test_figure_mistakes_are_named(verbs, tmp_path):
         figure(verb, ("speed", "mood"), tmp_path / "x.png")
     with pytest.raises(AdverbsError, match="two different adverbs"):
         figure(verb, ("speed", "speed"), tmp_path / "x.png")
-    with pytest.raises(AdverbsError, match="--kind 'feet'"):
-        figure(verb, ("speed", "turn"), tmp_path / "x.png", kind="feet")
+    with pytest.raises(AdverbsError, match="--kind 'walk'"):
+        figure(verb, ("speed", "turn"), tmp_path / "x.png", kind="walk")
     with pytest.raises(AdverbsError, match="--example 99"):
         figure(verb, ("speed", "turn"), tmp_path / "x.png", kind="space", example=99)
     assert not (tmp_path / "x.png").exists()
+
+
+def test_the_feet_figure_draws_planted_and_free_toes(verbs, tmp_path):
+    verb, _ = verbs["cmu_walk"]
+    out = figure(verb, None, tmp_path / "feet.png", kind="feet")
+    pixels = np.asarray(Image.open(out).convert("RGB"))
+    assert pixels.std() > 10
+    assert _has(pixels, "#1f77b4") > 300 and _has(pixels, "#ff7f0e") > 300  # one colour per toe: both feet drawn
+    with pytest.raises(AdverbsError, match="--kind poses needs --axes"):
+        figure(verb, None, tmp_path / "x.png")

@@ -9,7 +9,7 @@
                   -o OUT.bvh|OUT.glb [--portable]
     adverbs evaluate VERB [--png PLOT.png] [--json]
     adverbs heldout [--data DIR]
-    adverbs figure VERB --axes A B -o OUT.png [--kind poses|space] [--size N] [--example K]
+    adverbs figure VERB [--axes A B] -o OUT.png [--kind poses|space|feet] [--size N] [--example K]
     adverbs graph GRAPH.toml [--describe [--json] | --plan FROM TO | --play SCRIPT -o OUT.bvh|OUT.glb [--seconds S]
                   [--fps F] [--seed N] [--adverb NAME=VALUE ...] [--floor ...] [--start VERB]]
     adverbs run [GRAPH.toml ...] --script SCRIPT.toml --out DIR [--realtime] [--fps N] [--seed S] [--seconds S]
@@ -212,12 +212,13 @@ def build_parser() -> argparse.ArgumentParser:
         description=(
             "Draw a verb (a built .verb file, or a spec .toml, built first) across two of its adverbs: --kind poses "
             "(default) a grid of poses with the examples over it in another colour, like the paper's Figures 3-4; "
-            "--kind space the examples as points with one example's cardinal weight as a heat map."
+            "--kind space the examples as points with one example's cardinal weight as a heat map; --kind feet the toes "
+            "with and without planted feet (from above, and their heights over time)."
         ),
     )  # fmt: skip
     p.add_argument("verb", type=Path, metavar="VERB")
-    p.add_argument("--axes", nargs=2, required=True, metavar=("A", "B"), help="the two adverbs across the figure")
-    p.add_argument("--kind", default="poses", choices=("poses", "space"))
+    p.add_argument("--axes", nargs=2, metavar=("A", "B"), help="the two adverbs across the figure (poses, space)")
+    p.add_argument("--kind", default="poses", choices=("poses", "space", "feet"))
     p.add_argument("--size", type=int, default=5, help="poses along each axis (default 5)")
     p.add_argument("--example", type=int, default=0, help="with --kind space: whose weight (default the first example)")
     p.add_argument("-o", "--output", type=Path, required=True, metavar="OUT.png")
@@ -621,7 +622,8 @@ def _run(args: argparse.Namespace) -> None:
             verb = build_from_spec(args.verb)
         else:
             verb = load_verb(args.verb)
-        print(f"wrote {figure(verb, tuple(args.axes), args.output, args.kind, args.size, args.example)}")
+        axes = tuple(args.axes) if args.axes else None
+        print(f"wrote {figure(verb, axes, args.output, args.kind, args.size, args.example)}")
     elif args.command == "heldout":
         print(held_out(data=args.data).table())
     elif args.command == "evaluate":

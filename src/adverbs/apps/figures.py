@@ -5,6 +5,8 @@
   colour (the paper's Figures 3–4). The pose is the verb's at its middle keytime (a reach at its peak).
 * ``--kind space``: the examples as points in the two adverbs, with one example's cardinal weight as a heat map —
   1 at that example, 0 at the others, and how far its influence reaches between and beyond them.
+* ``--kind feet``: three cycles at the examples' mean (or at ``point``), each constrained foot's toe from above and
+  its height over time, with planted feet (solid) and without IK (dotted), the floor at 0: what planting changes.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ from ..errors import AdverbsError
 from ..kinematics.fk import forward_kinematics
 from ..verb.tables import Verb
 
-KINDS = ("poses", "space")
+KINDS = ("poses", "space", "feet")
 EXAMPLE_COLOR, GRID_COLOR = "#d9480f", "#1c7ed6"
 
 
@@ -52,7 +54,10 @@ def _poses(verb: Verb, points: np.ndarray) -> np.ndarray:
     return forward_kinematics(verb.skeleton.parents, rot, trans)[0]
 
 
-def figure(verb: Verb, axes: tuple[str, str], output: str | Path, kind: str = "poses", n: int = 5, example: int = 0) -> Path:
+def figure(
+    verb: Verb, axes: tuple[str, str] | None, output: str | Path, kind: str = "poses", n: int = 5, example: int = 0,
+    point: np.ndarray | None = None,
+) -> Path:  # fmt: skip
     """Draw ``kind`` (see the module) over adverbs ``axes`` of ``verb`` to ``output`` (.png, .pdf or .svg)."""
     import matplotlib
 
@@ -63,8 +68,13 @@ def figure(verb: Verb, axes: tuple[str, str], output: str | Path, kind: str = "p
         raise AdverbsError(f"--kind {kind!r}: use one of {', '.join(KINDS)}")
     if not (isinstance(n, int) and 2 <= n <= 12):
         raise AdverbsError(f"--size must be a whole number from 2 to 12, got {n!r}")
-    ia, ib = _axes(verb, axes)
     output = Path(output)
+    if kind == "feet":
+        fig = _feet(verb, verb.points.mean(axis=0) if point is None else verb.point(point), plt)
+        return _save(fig, output, plt)
+    if axes is None:
+        raise AdverbsError(f"--kind {kind} needs --axes A B: two of {', '.join(verb.adverb_names)}")
+    ia, ib = _axes(verb, axes)
     fig, ax = plt.subplots(figsize=(8, 7))
     if kind == "poses":
         points, a, b = _grid(verb, ia, ib, n)
@@ -105,6 +115,43 @@ def figure(verb: Verb, axes: tuple[str, str], output: str | Path, kind: str = "p
         ax.set_title(f"{verb.name}: the examples in adverb space, one example's cardinal weight")
     ax.set_xlabel(axes[0])
     ax.set_ylabel(axes[1])
+    return _save(fig, output, plt)
+
+
+def _feet(verb: Verb, point: np.ndarray, plt):
+    """Toe paths from above and toe heights over time, planted and not (see the module)."""
+    from ..verb.planting import plant_feet
+
+    if not verb.constraints:
+        raise AdverbsError(f"verb {verb.name!r} has no constraints: no feet to plant")
+    clip, k = verb.synthesize(point, cycles=3 if verb.cyclic else None)
+    planted, _ = plant_feet(verb, clip, k, None, point)
+    toes = [verb.skeleton.index(c.effector) for c in verb.constraints]
+    free, held = clip.global_positions()[:, toes], planted.global_positions()[:, toes]
+    t = np.arange(clip.num_frames) / clip.fps
+    fig, (top, side) = plt.subplots(1, 2, figsize=(11, 4.5), gridspec_kw={"width_ratios": [1, 1.6]})
+    for i, c in enumerate(verb.constraints):
+        color = f"C{i}"
+        top.plot(free[:, i, 0], free[:, i, 2], ":", color=color, lw=1)
+        top.plot(held[:, i, 0], held[:, i, 2], "-", color=color, lw=1.5, label=c.effector)
+        side.plot(t, free[:, i, 1], ":", color=color, lw=1, label=f"{c.effector}, no IK")
+        side.plot(t, held[:, i, 1], "-", color=color, lw=1.5, label=f"{c.effector}, planted")
+    side.axhline(0.0, color="k", lw=0.8)
+    top.set_aspect("equal", adjustable="datalim")
+    top.set_xlabel("x (m)")
+    top.set_ylabel("z (m)")
+    top.set_title("toes from above")
+    top.legend(fontsize=8)
+    side.set_xlabel("time (s)")
+    side.set_ylabel("toe joint height (m)")
+    side.set_title("toe heights: planted (solid), no IK (dotted); the floor at 0")
+    side.legend(fontsize=8, ncol=2)
+    values = ", ".join(f"{a}={x:.3g}" for a, x in zip(verb.adverb_names, point))
+    fig.suptitle(f"{verb.name} at {values}")
+    return fig
+
+
+def _save(fig, output: Path, plt) -> Path:
     fig.tight_layout()
     output.parent.mkdir(parents=True, exist_ok=True)
     tmp = output.with_name(f".{output.name}.part{output.suffix}")
