@@ -6,6 +6,7 @@ input typed on the page is clamped or refused while the creature keeps moving, a
 
 from __future__ import annotations
 
+import re
 import shutil
 import socket
 import time
@@ -118,7 +119,8 @@ def test_a_verb_button_queues_the_verb(viewer, page):
     verb = next(v for v in viewer.graphs[0].verb_names if v != creature.verb)
     page.get_by_role("button", name=verb, exact=True).click()
     _until(lambda: any(m.endswith(f"{verb} queued") for m in viewer.messages), what="the command on the server")
-    page.get_by_text(f"{verb} queued").first.wait_for(timeout=10000)  # and said on the page
+    # and on the page: the message, or the status line showing the creature on its way (both come from the server)
+    page.get_by_text(re.compile(rf"{verb} queued|: \S+ → {verb} \(|: {verb} at ")).first.wait_for(timeout=30000)
     _until(lambda: creature.verb == verb, what=f"the creature on its way to {verb}")
 
 
