@@ -61,3 +61,18 @@ def test_tilt_turns_up_onto_the_normal():
     n /= np.linalg.norm(n, axis=-1, keepdims=True)
     np.testing.assert_allclose(tilt(n) @ np.array([0.0, 1.0, 0.0]), n, rtol=0, atol=1e-12)
     np.testing.assert_allclose(tilt(np.array([0.0, 1.0, 0.0])), np.eye(3), rtol=0, atol=1e-15)
+
+
+def test_between_turns_one_direction_onto_another_the_short_way():
+    rng = np.random.default_rng(7)
+    u, v = rng.normal(size=(200, 3)), 3.0 * rng.normal(size=(200, 3))
+    q = quat.between(u, v)
+    unit = lambda x: x / np.linalg.norm(x, axis=-1, keepdims=True)  # noqa: E731
+    np.testing.assert_allclose(quat.rotate(q, unit(u)), unit(v), rtol=0, atol=1e-12)
+    # the shortest turn: its angle is the angle between the two
+    angle = 2.0 * np.arccos(np.clip(q[:, 3], -1.0, 1.0))
+    np.testing.assert_allclose(angle, np.arccos(np.clip(np.sum(unit(u) * unit(v), axis=1), -1, 1)), rtol=0, atol=1e-7)
+    # opposite directions (one broadcast against many): a half turn, still onto v
+    z = np.array([0.0, 0.0, 1.0])
+    half = quat.between(z, np.array([[0.0, 0.0, -1.0], [1e-13, 0.0, -1.0], [0.0, 2.0, 0.0]]))
+    np.testing.assert_allclose(quat.rotate(half, z), [[0, 0, -1], [0, 0, -1], [0, 1, 0]], rtol=0, atol=1e-12)

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import AdverbsError
+from ..io.files import atomic_path
 from ..kinematics.fk import forward_kinematics
 from ..verb.tables import Verb
 
@@ -153,12 +154,9 @@ def _feet(verb: Verb, point: np.ndarray, plt):
 
 def _save(fig, output: Path, plt) -> Path:
     fig.tight_layout()
-    output.parent.mkdir(parents=True, exist_ok=True)
-    tmp = output.with_name(f".{output.name}.part{output.suffix}")
     try:
-        fig.savefig(tmp, dpi=110)
-        tmp.replace(output)
+        with atomic_path(output) as tmp:
+            fig.savefig(tmp, dpi=110)
     finally:
-        tmp.unlink(missing_ok=True)
         plt.close(fig)
     return output

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import AdverbsError
+from ..io.files import atomic_path
 from ..motion.clip import Clip
 from ..motion.contacts import find_contacts
 
@@ -254,12 +255,8 @@ def render(
                 if progress:
                     progress(k * len(times) + i + 1, len(times) * len(scenes))
         fig.tight_layout()
-        tmp = output.with_name(output.name + ".part.png")
-        try:
+        with atomic_path(output) as tmp:
             fig.savefig(tmp, dpi=100)
-            tmp.replace(output)
-        finally:
-            tmp.unlink(missing_ok=True)
         return output
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
@@ -291,8 +288,7 @@ def _encode(frames: np.ndarray, output: Path, fps: float) -> None:
     """Write ``frames (T, H, W, 3)`` to ``output`` (GIF or MP4) through a temporary file, so a failed write leaves
     what was there. A GIF takes one palette for every frame (made from a few of them: the pictures have few
     colours), which is much faster than a palette per frame and does not flicker."""
-    tmp = output.with_name(output.name + ".part" + output.suffix)
-    try:
+    with atomic_path(output) as tmp:
         if output.suffix.lower() == ".gif":
             from PIL import Image
 
@@ -311,6 +307,3 @@ def _encode(frames: np.ndarray, output: Path, fps: float) -> None:
             with imageio.get_writer(tmp, format="FFMPEG", fps=fps, codec="libx264", quality=7, macro_block_size=2) as w:
                 for f in frames:
                     w.append_data(f)
-        tmp.replace(output)
-    finally:
-        tmp.unlink(missing_ok=True)

@@ -25,6 +25,7 @@ import numpy as np
 
 from ..errors import AdverbsError
 from ..graph.structure import REACH, Graph
+from ..kinematics import quat
 from ..kinematics.fk import forward_kinematics
 from ..runtime.simulation import Simulation
 from ..verb.planting import FREE
@@ -32,6 +33,7 @@ from ..verb.planting import FREE
 TRAIL_SECONDS = 4.0
 BONE_RADIUS = 0.025  # metres
 SPACING = 1.5  # metres between creatures, side by side
+UP_Z = np.array([0.0, 0.0, 1.0])  # the bone mesh's axis
 COLORS = [(230, 140, 60), (70, 140, 220), (90, 180, 110), (200, 90, 160), (150, 120, 220), (220, 200, 70)]
 
 
@@ -54,17 +56,6 @@ def _bones(graph: Graph) -> np.ndarray:
     pairs = [(int(skel.parents[j]), j) for j in range(1, skel.num_joints) if np.linalg.norm(skel.offsets[j]) > 0.01]
     body = skel.body_root()
     return np.array([p for p in pairs if p[1] != body], dtype=np.int64).reshape(-1, 2)
-
-
-def _wxyz_from_z(d: np.ndarray) -> np.ndarray:
-    """Rotations ``(N, 4)`` as viser wants them (w, x, y, z) taking +Z to the directions ``d (N, 3)``."""
-    n = np.linalg.norm(d, axis=1, keepdims=True)
-    u = d / np.maximum(n, 1e-12)
-    w = 1.0 + u[:, 2]
-    q = np.stack([w, -u[:, 1], u[:, 0], np.zeros(len(u))], axis=1)  # (w, x, y, z) of the arc +Z → u
-    flip = w < 1e-9  # pointing straight down: a half turn about X
-    q[flip] = [0.0, 1.0, 0.0, 0.0]
-    return q / np.linalg.norm(q, axis=1, keepdims=True)
 
 
 class Viewer:
@@ -293,7 +284,7 @@ class Viewer:
         shown = np.isfinite(feet[:, 0])
         with self.server.atomic():
             self._bone_mesh.batched_positions = np.concatenate(positions).astype(np.float32)
-            self._bone_mesh.batched_wxyzs = _wxyz_from_z(d).astype(np.float32)
+            self._bone_mesh.batched_wxyzs = quat.between(UP_Z, d)[:, [3, 0, 1, 2]].astype(np.float32)  # viser: (w, x, y, z)
             self._bone_mesh.batched_scales = np.concatenate(scales).astype(np.float32)
             self._feet_mesh.batched_positions = np.where(shown[:, None], feet, 0.0).astype(np.float32)
             self._feet_mesh.batched_scales = np.where(shown[:, None], [0.04, 0.04, 0.01], 0.0).astype(np.float32)
@@ -305,8 +296,7 @@ class Viewer:
         self._shown_at.append(now)
         self.updates += 1
         if self.updates % 10 == 0:
-            rate = (len(self._shown_at) - 1) / (self._shown_at[-1] - self._shown_at[0]) if len(self._shown_at) > 1 else 0.0
-            lines = [f"**{rate:.0f} frames/s** · t = {sim.time:.1f} s · speed {self.speed:g}× · feet {'planted' if sim.plant else 'free'}"]
+            lines = [f"**{self.rate:.0f} frames/s** · t = {sim.time:.1f} s · speed {self.speed:g}× · feet {'planted' if sim.plant else 'free'}"]
             lines += [f"- {c.name}: {c.playing}" for c in self.creatures[:12]]
             self._status.content = "\n".join(lines)
 

@@ -4,23 +4,34 @@ from __future__ import annotations
 
 import os
 import secrets
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 from ..errors import AdverbsError
 
 
-def write_atomic(path: str | Path, data: bytes) -> Path:
-    """Write ``data`` to ``path`` through a temporary file in the same folder, renamed over ``path`` once complete:
-    a failed write (disk full, a size limit) leaves what was at ``path`` untouched, and says which file failed."""
+@contextmanager
+def atomic_path(path: str | Path) -> Iterator[Path]:
+    """A temporary path beside ``path`` to write to (with the same extension, for writers that go by it), renamed
+    over ``path`` when the block ends without error and removed otherwise: a failed write (disk full, a size limit)
+    leaves what was at ``path`` untouched. Errors go through as they came."""
     path = Path(path)
-    tmp = path.with_name(f".{path.name}.{secrets.token_hex(4)}.part")
+    tmp = path.with_name(f".{path.name}.{secrets.token_hex(4)}.part{path.suffix}")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        with open(tmp, "xb") as f:  # the usual permissions, as a plain write would give
-            f.write(data)
+        yield tmp
         os.replace(tmp, path)
-    except OSError as e:
-        raise AdverbsError(f"{path}: cannot write: {e.strerror or e}") from None
     finally:
         tmp.unlink(missing_ok=True)
-    return path
+
+
+def write_atomic(path: str | Path, data: bytes) -> Path:
+    """Write ``data`` to ``path`` whole or not at all (see :func:`atomic_path`); a failure is an
+    :class:`AdverbsError` naming ``path``."""
+    try:
+        with atomic_path(path) as tmp, open(tmp, "xb") as f:  # the usual permissions, as a plain write would give
+            f.write(data)
+    except OSError as e:
+        raise AdverbsError(f"{path}: cannot write: {e.strerror or e}") from None
+    return Path(path)

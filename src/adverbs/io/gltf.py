@@ -27,10 +27,12 @@ from ..kinematics import quat
 from ..kinematics.fk import forward_kinematics
 from ..kinematics.skeleton import POSITION_CHANNELS, Skeleton
 from ..motion.clip import Clip
+from .bvh import UNITS
 from .files import write_atomic
 
 GENERATOR = "adverbs (https://github.com/adverbs)"
 FLOAT, UINT, USHORT, UBYTE = 5126, 5125, 5123, 5121
+DTYPES = {FLOAT: "<f4", UINT: "<u4", USHORT: "<u2", UBYTE: "<u1"}  # accessor component types as NumPy's
 ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER = 34962, 34963
 MOVES = 1e-9  # metres: a joint whose translation changes more than this over the clip gets a translation channel
 BONE_MIN = 0.01  # metres: bones shorter than this get no box
@@ -61,7 +63,7 @@ def format_glb(clip: Clip, body: bool = True) -> bytes:
     accessors: list[Accessor] = []
 
     def add(array: np.ndarray, kind: str, component: int, target: int | None = None, bounds: bool = False) -> int:
-        data = np.ascontiguousarray(array, dtype={FLOAT: "<f4", UINT: "<u4", USHORT: "<u2", UBYTE: "<u1"}[component])
+        data = np.ascontiguousarray(array, dtype=DTYPES[component])
         views.append(BufferView(buffer=0, byteOffset=len(blob), byteLength=data.nbytes, target=target))
         blob.extend(data.tobytes())
         blob.extend(b"\0" * (-len(blob) % 4))
@@ -193,7 +195,7 @@ def read_glb(path: str | Path, animation: int = 0) -> Clip:
     def read(index: int) -> np.ndarray:
         acc = gltf.accessors[index]
         view = gltf.bufferViews[acc.bufferView]
-        dtype = {FLOAT: "<f4", UINT: "<u4", USHORT: "<u2", UBYTE: "<u1"}[acc.componentType]
+        dtype = DTYPES[acc.componentType]
         width = {"SCALAR": 1, "VEC3": 3, "VEC4": 4, "MAT4": 16}[acc.type]
         start = (view.byteOffset or 0) + (acc.byteOffset or 0)
         return np.frombuffer(blob, dtype=dtype, count=acc.count * width, offset=start).reshape(acc.count, width).astype(float)
@@ -244,8 +246,6 @@ def read_glb(path: str | Path, animation: int = 0) -> Clip:
         channels = default
     sites = extras.get("end_sites") or {"parents": [], "offsets": []}
     units = str(extras.get("units", "m"))
-    from .bvh import UNITS
-
     skel = Skeleton(
         names=names, parents=parents, offsets=translations[0], channels=tuple(tuple(c) for c in channels),
         end_site_parents=np.array(sites["parents"], dtype=np.int64), end_site_offsets=np.array(sites["offsets"], dtype=float),

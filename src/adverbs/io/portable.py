@@ -60,14 +60,6 @@ def _turns(q: np.ndarray) -> bool:
     return bool(np.abs(quat.log(quat.mul(q, quat.inv(q[:1])))).max(initial=0.0) > STILL)
 
 
-def _between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """The shortest rotations ``(..., 4)`` taking directions ``u`` to ``v`` (``(..., 3)``, not necessarily unit)."""
-    u = u / np.linalg.norm(u, axis=-1, keepdims=True)
-    v = v / np.linalg.norm(v, axis=-1, keepdims=True)
-    q = np.concatenate([np.cross(u, v), 1.0 + np.sum(u * v, axis=-1, keepdims=True)], axis=-1)
-    return quat.normalize(q)  # u = −v (a half turn) cannot happen for an offset that slides by millimetres
-
-
 def portable(clip: Clip) -> Portable:
     """``clip`` on a skeleton with position channels only on its root (see the module)."""
     skel = clip.skeleton
@@ -118,7 +110,7 @@ def portable(clip: Clip) -> Portable:
                 )
             middle = 0.5 * (length.min() + length.max())
             offset = mean / np.linalg.norm(mean) * middle
-            turn = _between(np.broadcast_to(offset, t.shape), t)
+            turn = quat.between(offset, t)
             miss = float(np.abs(length - middle).max())
             if miss > 1e-6:
                 warnings.warn(

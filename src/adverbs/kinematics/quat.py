@@ -62,6 +62,23 @@ def about_y(angle: np.ndarray) -> np.ndarray:
     return np.stack([zero, np.sin(half), zero, np.cos(half)], axis=-1)
 
 
+def between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """The shortest rotations ``(..., 4)`` taking directions ``u`` to ``v`` (``(..., 3)``, any length, broadcasting).
+    Opposite directions: a half turn about an axis square to ``u`` (``u × x̂``, or ``u × ŷ`` for ``u`` near X)."""
+    u = u / np.linalg.norm(u, axis=-1, keepdims=True)
+    v = v / np.linalg.norm(v, axis=-1, keepdims=True)
+    u, v = np.broadcast_arrays(u, v)
+    w = 1.0 + np.sum(u * v, axis=-1, keepdims=True)
+    q = np.concatenate([np.cross(u, v), w], axis=-1)
+    opposite = w[..., 0] < 1e-9
+    if np.any(opposite):
+        uo = u[opposite]
+        other = np.where(np.abs(uo[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+        axis = np.cross(uo, other)
+        q[opposite] = np.concatenate([axis / np.linalg.norm(axis, axis=-1, keepdims=True), np.zeros((len(uo), 1))], axis=-1)
+    return normalize(q)
+
+
 def normalize(q: np.ndarray) -> np.ndarray:
     """Scale ``(..., 4)`` to unit length."""
     return q / np.linalg.norm(q, axis=-1, keepdims=True)
