@@ -425,3 +425,31 @@ def test_stopping_does_not_drag_the_swinging_foot(bandai, valence, energy, turn)
     inside = set(window.tolist())
     during = [s for s, b in zip(metrics.slide, releases) if b in inside or b - 1 in inside]
     assert max(during, default=0.0) <= KNOWN_STOP_SLIDE.get((valence, energy, turn), 0.2), during
+
+
+def test_one_verb_plays_over_and_over_as_a_graph_of_its_own(verbs, tmp_path):
+    # `adverbs view VERB`: a one-shot reach blends its end into its start and reaches again, with no pop
+    from adverbs.apps.viewer import load_for_view
+    from adverbs.runtime import Simulation
+
+    reach, _ = verbs["bandai_reach"]
+    g = Graph.of_verb(reach)
+    assert g.verb_names == (reach.name,) and [(t.source, t.target) for t in g.transitions] == [(0, 0)]
+    sim = Simulation([g], fps=30)
+    c = sim.add_creature()
+    sim.run(12.0)
+    clip = c.clip()
+    pos = clip.global_positions()
+    hand = pos[:, reach.skeleton.index("Hand_R"), 1]
+    middle = 0.5 * (hand.min() + hand.max())
+    assert np.count_nonzero(np.diff(np.sign(hand - middle))) >= 6  # up and down three times or more
+    alone, _ = reach.synthesize(reach.points.mean(axis=0))
+    speed = lambda p, fps: np.linalg.norm(np.diff(p, axis=0), axis=-1).max() * fps  # noqa: E731
+    assert speed(pos, clip.fps) <= 1.5 * speed(alone.global_positions(), alone.fps)
+    walk, _ = verbs["cmu_walk"]
+    assert [t.added for t in Graph.of_verb(walk).transitions] == [True]  # a cyclic verb's own loop, nothing else
+    # the viewer's target: a built verb file gives a graph of that verb; a graph spec a graph; a missing file an error
+    save_verb(reach, tmp_path / "reach.verb")
+    assert load_for_view(tmp_path / "reach.verb", progress=False)[0].verb_names == (reach.name,)
+    with pytest.raises(AdverbsError, match="nothing.toml: no such graph or verb spec file"):
+        load_for_view(tmp_path / "nothing.toml", progress=False)

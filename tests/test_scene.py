@@ -130,3 +130,42 @@ def test_demo_writes_its_files(tmp_path, capsys):
         assert verb in played
     assert "cmu (cmu): " in report["summary"][1] and "run" in report["summary"][1]
     assert len(_frames(tmp_path / "demo.gif")) == 340  # 33.97 s at 10 fps
+
+
+def test_the_run_figure_colours_each_path_by_the_verb_playing(scene, tmp_path):
+    from adverbs.apps.figures import run_figure, shade, timeline
+
+    sim, paths = scene
+    log = json.loads(paths["events"].read_text())
+    # the log says when each creature's recording starts and how long each blend lasts
+    assert [c["recorded_from"] for c in log["creatures"]] == [pytest.approx(sim.frame_times[0])] * 2
+    changes = [e for e in log["events"] if e["command"] == "transition" and e["from"] != e["to"]]
+    assert changes and all(0.1 < e["seconds"] < 3.0 for e in changes)
+    walk = next(e for e in changes if e["creature"] == "bandai")
+    line = timeline([e for e in log["events"] if e["creature"] == "bandai" and e["command"] == "transition"], "idle")
+    colour = {"idle": np.array([1.0, 0, 0]), "walk": np.array([0, 0, 1.0])}
+    t = np.array([walk["time"] - 0.01, walk["time"] + walk["seconds"] / 2, walk["time"] + walk["seconds"] + 0.01])
+    np.testing.assert_allclose(shade(t, line, colour), [[1, 0, 0], [0.5, 0, 0.5], [0, 0, 1]], rtol=0, atol=0.02)
+
+    out = run_figure(paths["events"].parent, tmp_path / "run.png")
+    pixels = np.asarray(Image.open(out).convert("RGB"))
+    has = lambda hex_: int((np.abs(pixels.astype(int) - [int(hex_[i : i + 2], 16) for i in (1, 3, 5)]).max(-1) < 30).sum())  # noqa: E731
+    assert has("#1f77b4") > 300 and has("#ff7f0e") > 300  # idle (the first verb seen) and walk, in tab10's first two
+
+
+def test_the_run_figure_names_what_is_missing(scene, tmp_path):
+    from adverbs.apps.figures import run_figure
+
+    _, paths = scene
+    with pytest.raises(AdverbsError, match="no such file"):
+        run_figure(tmp_path, tmp_path / "x.png")
+    (tmp_path / "events.json").write_text(paths["events"].read_text())
+    with pytest.raises(AdverbsError, match=r"'bandai' has no recording beside it \(bandai.bvh"):
+        run_figure(tmp_path, tmp_path / "x.png")
+    (tmp_path / "events.json").write_text('{"creatures": [}')
+    with pytest.raises(AdverbsError, match="events.json: not a run log"):
+        run_figure(tmp_path / "events.json", tmp_path / "x.png")
+    assert not (tmp_path / "x.png").exists()
+    assert main(["figure", str(paths["events"].parent), "-o", str(tmp_path / "y.png"), "--kind", "poses"]) != 0
+    assert main(["figure", str(paths["events"].parent), "-o", str(tmp_path / "y.png")]) == 0
+    assert (tmp_path / "y.png").stat().st_size > 10_000

@@ -10,13 +10,14 @@
     adverbs evaluate VERB [--png PLOT.png] [--json]
     adverbs heldout [--data DIR]
     adverbs figure VERB [--axes A B] -o OUT.png [--kind poses|space|feet] [--size N] [--example K]
+    adverbs figure RUN_DIR|events.json -o OUT.png
     adverbs graph GRAPH.toml [--describe [--json] | --plan FROM TO | --play SCRIPT -o OUT.bvh|OUT.glb [--seconds S]
                   [--fps F] [--seed N] [--adverb NAME=VALUE ...] [--floor ...] [--start VERB]]
     adverbs run [GRAPH.toml ...] --script SCRIPT.toml --out DIR [--realtime] [--fps N] [--seed S] [--seconds S]
                 [--format bvh,glb] [--portable]
     adverbs render MOTION.bvh ... -o OUT.gif|OUT.mp4|OUT.png [--camera C] [--fps F] [--size WxH] [--fixed]
     adverbs demo [--out DIR]
-    adverbs view [GRAPH.toml] [--creatures N] [--host H] [--port P] [--fps F] [--seed S] [--no-ik]
+    adverbs view [GRAPH.toml | VERB] [--creatures N] [--host H] [--port P] [--fps F] [--seed S] [--no-ik]
 
 Errors in the input print one line naming the file and line and exit with status 1.
 """
@@ -38,12 +39,14 @@ from ..io import motion_format, read_motion, write_motion
 from ..kinematics.floor import parse_floor
 from ..motion.clip import Clip
 from ..motion.contacts import find_contacts
+from ..verb.fit import verb_from
 from ..verb.planting import foot_drift, measure_feet, plant_feet
 from ..verb.store import load_verb, save_verb
 from ..verb.synthesis import render
 from ..verb.tables import Verb
 from . import scene
 from .evaluate import DATA, METHODS, evaluate, held_out, predict
+from .terminal import progress_bar
 
 
 def info(clip: Clip, path: str | Path) -> dict:
@@ -213,12 +216,13 @@ def build_parser() -> argparse.ArgumentParser:
             "Draw a verb (a built .verb file, or a spec .toml, built first) across two of its adverbs: --kind poses "
             "(default) a grid of poses with the examples over it in another colour, like the paper's Figures 3-4; "
             "--kind space the examples as points with one example's cardinal weight as a heat map; --kind feet the toes "
-            "with and without planted feet (from above, and their heights over time)."
+            "with and without planted feet (from above, and their heights over time). Given a run instead (the folder "
+            "of adverbs run --out DIR, or its events.json): each creature's root path coloured by verb, and a timeline."
         ),
     )  # fmt: skip
-    p.add_argument("verb", type=Path, metavar="VERB")
+    p.add_argument("verb", type=Path, metavar="VERB|RUN")
     p.add_argument("--axes", nargs=2, metavar=("A", "B"), help="the two adverbs across the figure (poses, space)")
-    p.add_argument("--kind", default="poses", choices=("poses", "space", "feet"))
+    p.add_argument("--kind", choices=("poses", "space", "feet", "run"), help="default: run for a run, else poses")
     p.add_argument("--size", type=int, default=5, help="poses along each axis (default 5)")
     p.add_argument("--example", type=int, default=0, help="with --kind space: whose weight (default the first example)")
     p.add_argument("-o", "--output", type=Path, required=True, metavar="OUT.png")
@@ -614,20 +618,27 @@ def _run(args: argparse.Namespace) -> None:
     elif args.command == "graph":
         _graph(args)
     elif args.command == "figure":
-        from .figures import figure
+        from .figures import figure, is_run, run_figure
 
-        if args.verb.suffix.lower() == ".toml":
-            from ..verb.fit import build_from_spec
-
-            verb = build_from_spec(args.verb)
-        else:
-            verb = load_verb(args.verb)
+        if is_run(args.verb):
+            if args.kind not in (None, "run"):
+                raise AdverbsError(f"{args.verb} is a run: it draws as --kind run, not --kind {args.kind}")
+            print(f"wrote {run_figure(args.verb, args.output)}")
+            return
         axes = tuple(args.axes) if args.axes else None
-        print(f"wrote {figure(verb, axes, args.output, args.kind, args.size, args.example)}")
+        print(f"wrote {figure(verb_from(args.verb), axes, args.output, args.kind or 'poses', args.size, args.example)}")
     elif args.command == "heldout":
-        print(held_out(data=args.data).table())
+        update, close = progress_bar("predicting held-out takes")
+        try:
+            print(held_out(data=args.data, progress=update).table())
+        finally:
+            close()
     elif args.command == "evaluate":
-        result = evaluate(load_verb(args.verb))
+        update, close = progress_bar("leave-one-out")
+        try:
+            result = evaluate(load_verb(args.verb), progress=update)
+        finally:
+            close()
         if args.json:
             print(json.dumps(result.to_dict(), indent=2))
         else:

@@ -32,6 +32,7 @@ measured; the largest error per adverb as a percentage of the examples' range.
 from __future__ import annotations
 
 import tempfile
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -199,8 +200,9 @@ def predict(
     return cp, k
 
 
-def evaluate(verb: Verb) -> Evaluation:
-    """Leave-one-out comparison and obedience for ``verb`` (see the module docstring)."""
+def evaluate(verb: Verb, progress: Callable[[float, float], None] | None = None) -> Evaluation:
+    """Leave-one-out comparison and obedience for ``verb`` (see the module docstring); ``progress(done, total)`` is
+    called as each example is predicted."""
     e = len(verb.examples)
     if e < 2 or not verb.adverbs:
         raise AdverbsError(
@@ -217,7 +219,9 @@ def evaluate(verb: Verb) -> Evaluation:
         for m, (pose[m][i], adverb[m][i], g) in errors.items():
             if goal is not None:
                 goal[m][i] = g
-    return Evaluation(
+        if progress is not None:
+            progress(i + 1, e + 1)
+    result = Evaluation(
         verb.name,
         [x.name for x in verb.examples],
         pose,
@@ -227,6 +231,9 @@ def evaluate(verb: Verb) -> Evaluation:
         obedience(verb) if measured else {},
         drift(verb) if verb.constraints else None,
     )
+    if progress is not None:
+        progress(e + 1, e + 1)
+    return result
 
 
 def _ranges(points: np.ndarray) -> np.ndarray:
@@ -403,7 +410,9 @@ def _takes(numbers: list[int]) -> str:
     return ", ".join(f"{t:03d}" for t in numbers)
 
 
-def held_out(classes: tuple[TakeClass, ...] = HELD_OUT_CLASSES, data: Path = DATA) -> HeldOut:
+def held_out(
+    classes: tuple[TakeClass, ...] = HELD_OUT_CLASSES, data: Path = DATA, progress: Callable[[float, float], None] | None = None
+) -> HeldOut:  # fmt: skip
     """Build each class's verb from its odd takes and predict its even takes (see :class:`TakeClass`).
 
     One verb is built from every take of a class (so the held-out takes' own control points are the
@@ -414,7 +423,9 @@ def held_out(classes: tuple[TakeClass, ...] = HELD_OUT_CLASSES, data: Path = DAT
     """
     chosen, pose, adverb = [], [], []
     with tempfile.TemporaryDirectory() as tmp:
-        for c in classes:
+        for k, c in enumerate(classes):
+            if progress is not None:
+                progress(k, len(classes))
             path = Path(tmp) / f"{c.name}.toml"
             path.write_text(c.spec(Path(data).resolve()), encoding="utf-8")
             verb = build_from_spec(path)
@@ -428,4 +439,6 @@ def held_out(classes: tuple[TakeClass, ...] = HELD_OUT_CLASSES, data: Path = DAT
             )
             ip = AdverbInterpolator(verb.points[train], smoothing="auto", shrinkage="auto", values=values)
             chosen.append((ip.smoothing, ip.shrinkage))
+    if progress is not None:
+        progress(len(classes), len(classes))
     return HeldOut(list(classes), chosen, pose, adverb)

@@ -7,10 +7,14 @@
   1 at that example, 0 at the others, and how far its influence reaches between and beyond them.
 * ``--kind feet``: three cycles at the examples' mean (or at ``point``), each constrained foot's toe from above and
   its height over time, with planted feet (solid) and without IK (dotted), the floor at 0: what planting changes.
+* ``--kind run`` (for a run's folder or its ``events.json``, from ``adverbs run --out DIR`` or the demo): each
+  creature's root path from above, coloured by the verb it plays (a blend shades from one verb's colour to the
+  next), and a timeline of the verbs per creature.
 """
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -20,7 +24,7 @@ from ..io.files import atomic_path
 from ..kinematics.fk import forward_kinematics
 from ..verb.tables import Verb
 
-KINDS = ("poses", "space", "feet")
+KINDS = ("poses", "space", "feet", "run")
 EXAMPLE_COLOR, GRID_COLOR = "#d9480f", "#1c7ed6"
 
 
@@ -70,6 +74,8 @@ def figure(
     if not (isinstance(n, int) and 2 <= n <= 12):
         raise AdverbsError(f"--size must be a whole number from 2 to 12, got {n!r}")
     output = Path(output)
+    if kind == "run":
+        raise AdverbsError("--kind run draws a run: give the run's folder or its events.json instead of a verb")
     if kind == "feet":
         fig = _feet(verb, verb.points.mean(axis=0) if point is None else verb.point(point), plt)
         return _save(fig, output, plt)
@@ -150,6 +156,117 @@ def _feet(verb: Verb, point: np.ndarray, plt):
     values = ", ".join(f"{a}={x:.3g}" for a, x in zip(verb.adverb_names, point))
     fig.suptitle(f"{verb.name} at {values}")
     return fig
+
+
+def is_run(path: str | Path) -> bool:
+    """Whether ``path`` names a run (a folder, or a ``.json`` log) rather than a verb."""
+    path = Path(path)
+    return path.is_dir() or path.suffix.lower() == ".json"
+
+
+def timeline(entries: list[dict], start_verb: str) -> list[tuple[float, str, str, float]]:
+    """A creature's verb changes ``(time, from, to, blend seconds)`` in time order, from its transition log entries;
+    loops of a verb into itself are left out (the verb goes on)."""
+    changes = []
+    for e in sorted(entries, key=lambda e: e["time"]):
+        if e["from"] != e["to"]:
+            changes.append((float(e["time"]), str(e["from"]), str(e["to"]), float(e.get("seconds", 0.0))))
+    if not changes:
+        return [(-np.inf, start_verb, start_verb, 0.0)]
+    return [(-np.inf, changes[0][1], changes[0][1], 0.0), *changes]
+
+
+def shade(t: np.ndarray, line: list[tuple[float, str, str, float]], color: dict[str, np.ndarray]) -> np.ndarray:
+    """The colour ``(len(t), 3)`` at each time of a creature's timeline (:func:`timeline`): the playing verb's,
+    shading linearly from the old verb's to the new one's over a blend (its β)."""
+    k = np.searchsorted([x[0] for x in line], t, side="right") - 1
+    out = np.empty((len(t), 3))
+    for i, (t0, a, b, blend) in enumerate(line):
+        rows = k == i
+        u = np.clip((t[rows] - t0) / blend, 0.0, 1.0)[:, None] if blend > 0 else np.ones((rows.sum(), 1))
+        out[rows] = (1 - u) * color[a] + u * color[b]
+    return out
+
+
+def run_figure(run: str | Path, output: str | Path) -> Path:
+    """Draw a run (``--kind run``, see the module) from its folder or ``events.json`` and the creatures' recordings
+    beside it (``NAME.bvh`` or ``NAME.glb``) to ``output``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.collections import LineCollection
+    from matplotlib.colors import to_rgb
+
+    from ..io import read_motion
+
+    run = Path(run)
+    log = run / "events.json" if run.is_dir() else run
+    try:
+        report = json.loads(log.read_text())
+        creatures, events = report["creatures"], report["events"]
+        names = [str(c["name"]) for c in creatures]
+    except FileNotFoundError:
+        raise AdverbsError(f"{log}: no such file (a run's folder holds events.json: adverbs run --out DIR)") from None
+    except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError) as e:
+        raise AdverbsError(f"{log}: not a run log (events.json from adverbs run): {e!r}") from None
+    if not creatures:
+        raise AdverbsError(f"{log}: the run has no creatures")
+    paths, times, lines = [], [], []
+    for c in creatures:
+        found = [log.parent / f"{c['name']}{ext}" for ext in (".bvh", ".glb")]
+        found = [p for p in found if p.exists()]
+        if not found:
+            raise AdverbsError(f"{log}: creature {c['name']!r} has no recording beside it ({c['name']}.bvh or .glb)")
+        clip = read_motion(found[0])
+        body = clip.skeleton.body_root()
+        paths.append(clip.global_positions()[:, body])
+        first = c.get("recorded_from")
+        times.append((0.0 if first is None else float(first)) + np.arange(clip.num_frames) / clip.fps)
+        mine = [e for e in events if e.get("creature") == c["name"] and e.get("command") == "transition"]
+        lines.append(timeline(mine, str(c.get("verb", "?"))))
+    verbs = list(dict.fromkeys(v for line in lines for _, a, b, _ in line for v in (a, b)))
+    palette = plt.get_cmap("tab10" if len(verbs) <= 10 else "tab20")
+    color = {v: np.array(to_rgb(palette(i % palette.N))) for i, v in enumerate(verbs)}
+
+    def colours(t: np.ndarray, line: list) -> np.ndarray:
+        return shade(t, line, color)
+
+    fig, (top, when) = plt.subplots(
+        2, 1, figsize=(9, 8.5), gridspec_kw={"height_ratios": [3.2, 0.45 + 0.35 * len(names)]}
+    )  # fmt: skip
+    for name, pos, t, line in zip(names, paths, times, lines):
+        xy = pos[:, [0, 2]]
+        if len(xy) > 1:
+            segments = np.stack([xy[:-1], xy[1:]], axis=1)
+            top.add_collection(LineCollection(segments, colors=colours(t[:-1], line), linewidths=2.4))
+        top.plot(*xy[0], "o", color="k", ms=5)
+        top.plot(*xy[-1], "s", color="k", ms=5)
+        top.annotate(name, xy[0], textcoords="offset points", xytext=(6, 6), fontsize=9)
+        for t0, *_ in line[1:]:
+            i = min(int(np.searchsorted(t, t0)), len(xy) - 1)
+            top.plot(*xy[i], "|", color="k", ms=9, mew=1)
+    top.autoscale()
+    top.set_aspect("equal", adjustable="datalim")
+    top.set_xlabel("x (m)")
+    top.set_ylabel("z (m)")
+    top.set_title("root paths from above, coloured by verb (start ●, end ■, | where a verb change begins)")
+    top.legend(
+        handles=[plt.Line2D([], [], color=color[v], lw=3, label=v) for v in verbs], fontsize=8, loc="best", ncol=2
+    )  # fmt: skip
+    end = max(float(t[-1]) for t in times)
+    for row, (t, line) in enumerate(zip(times, lines)):
+        grid = np.linspace(float(t[0]), float(t[-1]), 600)
+        when.imshow(
+            colours(grid, line)[None], extent=(grid[0], grid[-1], row + 0.35, row - 0.35), aspect="auto",
+            interpolation="nearest",
+        )  # fmt: skip
+    when.set_yticks(range(len(names)), names)
+    when.set_ylim(len(names) - 0.5, -0.5)
+    when.set_xlim(0.0, end)
+    when.set_xlabel("time (s)")
+    when.set_title("verbs over time")
+    return _save(fig, Path(output), plt)
 
 
 def _save(fig, output: Path, plt) -> Path:

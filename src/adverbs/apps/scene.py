@@ -20,6 +20,7 @@ from ..kinematics.floor import parse_floor
 from ..runtime.script import load_script
 from ..runtime.simulation import Simulation
 from .render import CAMERAS, render
+from .terminal import progress_bar
 
 ROOT = Path(__file__).resolve().parents[3]
 DEMO_SCRIPT = ROOT / "scripts" / "demo.toml"
@@ -93,7 +94,10 @@ def add_parsers(sub, positive, seed) -> None:
             "line (run, valence=0.5), what each creature plays and the frame rate. Open the printed address."
         ),
     )  # fmt: skip
-    p.add_argument("graph", type=Path, nargs="?", metavar="GRAPH", help="a graph spec (default graphs/bandai.toml)")
+    p.add_argument(
+        "graph", type=Path, nargs="?", metavar="GRAPH|VERB",
+        help="a graph spec (default graphs/bandai.toml), or one verb (a spec .toml or a built verb) played over and over",
+    )  # fmt: skip
     p.add_argument("--creatures", type=int, default=1, help="how many creatures (default 1)")
     p.add_argument("--host", default="127.0.0.1", help="address to serve on (default 127.0.0.1: this machine only)")
     p.add_argument("--port", type=int, default=8080, help="port (default 8080)")
@@ -107,21 +111,6 @@ def _formats(text: str) -> tuple[str, ...]:
     if not kinds or any(k not in ("bvh", "glb") for k in kinds):
         raise argparse.ArgumentTypeError(f"{text!r}: give bvh, glb or bvh,glb")
     return kinds
-
-
-def _progress(what: str):
-    """A progress callback ``(done, total)`` drawing a bar on a terminal (tqdm), or None when stderr is not one."""
-    if not sys.stderr.isatty():
-        return None, lambda: None
-    from tqdm import tqdm
-
-    bar = tqdm(total=1.0, desc=what, unit="", bar_format="{desc}: {percentage:3.0f}%|{bar}| {elapsed}<{remaining}", file=sys.stderr)
-
-    def update(done: float, total: float) -> None:
-        bar.n = min(done / total, 1.0) if total else 1.0
-        bar.refresh()
-
-    return update, bar.close
 
 
 def _graphs(paths: Sequence[Path], progress: bool) -> list[Graph]:
@@ -154,7 +143,7 @@ def run_script(
     )  # fmt: skip
     script.apply(sim)
     length = seconds or script.seconds or RUN_SECONDS
-    update, close = _progress("running") if not (quiet or realtime) else (None, lambda: None)
+    update, close = progress_bar("running") if not (quiet or realtime) else (None, lambda: None)
     try:
         sim.run(length, progress=update)
     finally:
@@ -206,7 +195,7 @@ def main(args: argparse.Namespace) -> None:
             print(f"wrote {p}" + ("" if name == "events" else f" ({name})"))
     elif args.command == "render":
         clips = [read_motion(p) for p in args.motions]
-        update, close = _progress("drawing")
+        update, close = progress_bar("drawing")
         try:
             out = render(
                 clips, args.output, args.camera, args.fps, _size(args.size), args.panels, not args.fixed, args.trail,
@@ -246,7 +235,7 @@ def demo(out: Path, script: Path = DEMO_SCRIPT) -> dict[str, Path]:
         warnings.simplefilter("ignore", AdverbsWarning)  # the verbs' build notes: the report says what matters
         sim, paths = run_script([], script, out, formats=("bvh", "glb"))
     clips = [c.clip() for c in sim.creatures]
-    update, close = _progress("drawing")
+    update, close = progress_bar("drawing")
     try:
         paths["animation"] = render(clips, out / "demo.gif", fps=10, size=(960, 420), split=True, progress=update)
     finally:

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 import queue
+import sys
 import threading
 import time
 from collections import deque
@@ -333,12 +334,17 @@ class Viewer:
         return f"http://{'127.0.0.1' if self.host in ('0.0.0.0', '') else self.host}:{self.port}"
 
 
-def load_for_view(target: str | Path | None):
-    """The graphs to show: a graph spec (default the shipped Bandai graph)."""
-    from ..graph import load_graph
+def load_for_view(target: str | Path | None, progress: bool = True):
+    """The graphs to show: a graph spec (default the shipped Bandai graph), or one verb — a verb spec (built now) or a
+    built verb file — as a graph of its own that plays it over and over (:meth:`Graph.of_verb`)."""
+    from ..graph import Graph, load_graph
+    from ..verb.fit import verb_from
+    from ..verb.spec import read_toml
 
     root = Path(__file__).resolve().parents[3]
     path = Path(target) if target is not None else root / "graphs" / "bandai.toml"
-    if path.suffix.lower() != ".toml":
-        raise AdverbsError(f"{path}: give a graph spec (.toml), e.g. graphs/bandai.toml")
-    return [load_graph(path, progress=True)]
+    if path.suffix.lower() == ".toml" and "verbs" in read_toml(path, "graph or verb spec", lambda p, why: AdverbsError(f"{p}: {why}")):
+        return [load_graph(path, progress=progress)]
+    if progress:
+        print(f"building {path}" if path.suffix.lower() == ".toml" else f"loading {path}", file=sys.stderr)
+    return [Graph.of_verb(verb_from(path), source=str(path))]

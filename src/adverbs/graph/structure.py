@@ -154,6 +154,13 @@ class Graph:
         clamped = tuple(bool(x) for x in (clamped if clamped is not None else [False] * len(verbs)))
         return cls(name, verbs, tuple(adverb_names), values, columns, tuple(edges), int(start), source, clamped)
 
+    @classmethod
+    def of_verb(cls, verb: Verb, source: str = "") -> Graph:
+        """A graph of one verb playing over and over: a cyclic verb loops into itself, a one-shot verb (a reach, a bow)
+        blends its last ``LOOP`` of generic time into its first, starting again where it ended."""
+        again = [] if verb.cyclic else [Transition(0, 0, (1.0 - LOOP, 1.0), (0.0, LOOP), 1.0, "cosine", True, True)]
+        return cls.make(verb.name, [verb], again, source=source)
+
     def verb_points(self, v: int, points: np.ndarray) -> np.ndarray:
         """Verb ``v``'s adverb points ``(C, A_v)`` from graph points ``(C, A)`` (kept inside its examples if clamped)."""
         p = np.ascontiguousarray(points[:, self.columns[v]])

@@ -480,7 +480,7 @@ class Simulation:
             names = g.graph.verb_names
             self.log.append({
                 "time": round(t, 9), "creature": g.names[c], "command": "transition",
-                "from": names[tr.source], "to": names[tr.target], "status": "ran",
+                "from": names[tr.source], "to": names[tr.target], "seconds": round(float(s.length[c]), 6), "status": "ran",
             })  # fmt: skip
 
     # ----- recording ---------------------------------------------------------------------------------
@@ -523,6 +523,11 @@ class Simulation:
         paths["events"] = events
         return paths
 
+    def _recorded_from(self, creature: Creature) -> float | None:
+        """The simulation time of a creature's first recorded frame (None when nothing is recorded)."""
+        n = len(creature._group.recorded)
+        return round(float(self.frame_times[-n]), 9) if n else None
+
     def report(self) -> dict:
         """What ran: the frame rate, the creatures, the commands and transitions (the log), and skipped events."""
         frames = np.asarray(self.frame_times)
@@ -535,7 +540,8 @@ class Simulation:
             "clock": "wall" if self.clock.realtime else "virtual",
             "seed": self.seed,
             "creatures": [
-                {"name": c.name, "graph": c.graph.name, "verb": c.verb, "root": list(c.root), "adverbs": c.adverbs}
+                {"name": c.name, "graph": c.graph.name, "verb": c.verb, "root": list(c.root), "adverbs": c.adverbs,
+                 "recorded_from": self._recorded_from(c)}
                 for c in self._creatures
             ],
             "events": self.log,

@@ -198,6 +198,13 @@ def build_from_spec(path: str | Path) -> Verb:
     return build_with_examples(path)[0]
 
 
+def verb_from(path: str | Path) -> Verb:
+    """A verb from a spec (``.toml``, built now) or a built verb file (anything else)."""
+    from .store import load_verb
+
+    return build_from_spec(path) if Path(path).suffix.lower() == ".toml" else load_verb(path)
+
+
 def build_with_examples(path: str | Path) -> tuple[Verb, list[Example]]:
     """:func:`build_from_spec`, also returning the examples the verb was built from (cut, measured)."""
     spec = load_spec(path)
