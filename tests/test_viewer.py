@@ -99,6 +99,23 @@ def test_the_page_connects_and_shows_the_creature_moving(viewer, page, tmp_path)
     assert 0.002 < dark < 0.5, dark  # grid lines and bones, on a light background
 
 
+def test_the_camera_and_the_ground_follow_the_walking_creature(viewer, page):
+    creature = viewer.creatures[0]
+    body = viewer.graphs[0].skeleton.body_root()
+    client = next(iter(viewer.server.get_clients().values()))
+
+    def looking_at_it() -> bool:
+        here = viewer.positions[creature.name][body]
+        look = np.asarray(client.camera.look_at)
+        return np.hypot(*(look - here)[[0, 2]]) < 0.5 and abs(look[1] - 0.9) < 1e-6
+
+    start = viewer.positions[creature.name][body].copy()
+    _until(lambda: np.hypot(*(viewer.positions[creature.name][body] - start)[[0, 2]]) > 2.0, 30, "the creature walking 2 m")
+    _until(looking_at_it, what="the page's camera looking at the creature")
+    ground = np.asarray(viewer._ground.position)
+    assert np.hypot(*(ground - viewer.positions[creature.name][body])[[0, 2]]) <= np.sqrt(2) + 0.5  # within a section
+
+
 def test_a_slider_moved_in_the_browser_reaches_the_creature(viewer, page):
     name = viewer.graphs[0].adverb_names[0]
     lo, hi = viewer._range(name)

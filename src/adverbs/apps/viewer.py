@@ -34,6 +34,9 @@ from ..verb.planting import FREE
 TRAIL_SECONDS = 4.0
 BONE_RADIUS = 0.025  # metres
 SPACING = 1.5  # metres between creatures, side by side
+FOLLOW_EVERY = 5  # frames between camera moves when it follows the creatures
+LOOK_HEIGHT = 0.9  # metres: where the camera looks, above the ground under the creatures' middle
+GRID_SECTION = 2.0  # metres: the ground grid's major lines (it moves by whole sections)
 UP_Z = np.array([0.0, 0.0, 1.0])  # the bone mesh's axis
 COLORS = [(230, 140, 60), (70, 140, 220), (90, 180, 110), (200, 90, 160), (150, 120, 220), (220, 200, 70)]
 
@@ -97,8 +100,10 @@ class Viewer:
         self.server.scene.set_up_direction("+y")
         width = SPACING * creatures * len(graphs)
         self.server.initial_camera.position = (0.6 * width + 2.5, 1.8, 4.0 + 0.4 * width)
-        self.server.initial_camera.look_at = (0.0, 0.9, 0.0)
-        self.server.scene.add_grid("/ground", width=40.0, height=40.0, plane="xz", cell_size=0.5, section_size=2.0)
+        self.server.initial_camera.look_at = (0.0, LOOK_HEIGHT, 0.0)
+        self._ground = self.server.scene.add_grid(
+            "/ground", width=40.0, height=40.0, plane="xz", cell_size=0.5, section_size=GRID_SECTION
+        )  # fmt: skip
         self._build_gui()
         self._bones = [_bones(g) for g in graphs]
         verts, faces = _cylinder()
@@ -114,7 +119,7 @@ class Viewer:
             "/feet", ball_v, ball_f, batched_wxyzs=np.tile([1.0, 0, 0, 0], (max(feet, 1), 1)),
             batched_positions=np.zeros((max(feet, 1), 3)), batched_scales=np.zeros((max(feet, 1), 3)), batched_colors=(255, 120, 0),
         )  # fmt: skip
-        self._trail = self.server.scene.add_line_segments("/trails", np.zeros((1, 2, 3)), (120, 120, 120), thickness=0.01)
+        self._trail = self.server.scene.add_line_segments("/trails", np.zeros((1, 2, 3)), (90, 90, 90), thickness=0.02)
 
     # ----- the page -------------------------------------------------------------------------------------
     def _build_gui(self) -> None:
@@ -145,6 +150,7 @@ class Viewer:
             speed.on_update(lambda e: self.apply({"speed": e.target.value}))
             ik = gui.add_checkbox("planted feet (IK)", initial_value=self.sim.plant)
             ik.on_update(lambda e: self.apply({"plant": e.target.value}))
+            self._follow = gui.add_checkbox("camera follows", initial_value=True)
         self._command = gui.add_text("command", initial_value="", hint="a verb (run) or an adverb (valence=0.5), Enter")
         self._command.on_update(lambda e: self.apply({"text": e.target.value}) if e.target.value.strip() else None)
 
@@ -272,7 +278,8 @@ class Viewer:
             tips = list(g.feet)
             if group.feet is not None and sim.plant and tips:
                 held = group.feet.mode != FREE  # (C, L)
-                feet_at.append(np.where(held[..., None], pos[:, tips], np.nan).reshape(-1, 3))
+                on_ground = pos[:, tips] * [1.0, 0.0, 1.0] + [0.0, 0.004, 0.0]  # a disc on the floor under the held toe
+                feet_at.append(np.where(held[..., None], on_ground, np.nan).reshape(-1, 3))
             elif tips:
                 feet_at.append(np.full((len(mine) * len(tips), 3), np.nan))
             body = g.skeleton.body_root()
@@ -288,11 +295,13 @@ class Viewer:
             self._bone_mesh.batched_wxyzs = quat.between(UP_Z, d)[:, [3, 0, 1, 2]].astype(np.float32)  # viser: (w, x, y, z)
             self._bone_mesh.batched_scales = np.concatenate(scales).astype(np.float32)
             self._feet_mesh.batched_positions = np.where(shown[:, None], feet, 0.0).astype(np.float32)
-            self._feet_mesh.batched_scales = np.where(shown[:, None], [0.04, 0.04, 0.01], 0.0).astype(np.float32)
+            self._feet_mesh.batched_scales = np.where(shown[:, None], [0.06, 0.06, 0.006], 0.0).astype(np.float32)
             self._feet_mesh.batched_wxyzs = np.tile(np.float32([0.7071068, -0.7071068, 0, 0]), (len(feet), 1))  # discs flat
             segments = [np.stack([np.array(t)[:-1], np.array(t)[1:]], axis=1) for t in self._trails.values() if len(t) > 1]
             if segments:
                 self._trail.points = np.concatenate(segments).astype(np.float32)
+        if self.updates % FOLLOW_EVERY == 0:
+            self._follow_camera()
         now = time.perf_counter()
         self._shown_at.append(now)
         self.updates += 1
@@ -300,6 +309,24 @@ class Viewer:
             lines = [f"**{self.rate:.0f} frames/s** · t = {sim.time:.1f} s · speed {self.speed:g}× · feet {'planted' if sim.plant else 'free'}"]
             lines += [f"- {c.name}: {c.playing}" for c in self.creatures[:12]]
             self._status.content = "\n".join(lines)
+
+    def _follow_camera(self) -> None:
+        """Keep the creatures in view as they travel: every page's camera looks at the creatures' middle, from where
+        its viewer has orbited and zoomed to (the camera's offset from what it looks at is kept), and the ground grid
+        moves with them in whole grid sections. ``camera follows`` off: the cameras stay where they are."""
+        with self._lock:
+            ends = [t[-1] for t in self._trails.values() if t]
+        if not ends or not self._follow.value:
+            return
+        middle = np.mean(ends, axis=0)
+        target = np.array([middle[0], LOOK_HEIGHT, middle[2]])
+        if not np.all(np.isfinite(target)):
+            return
+        for client in self.server.get_clients().values():
+            look = np.asarray(client.camera.look_at, dtype=float)
+            if np.abs(look - target).max() > 1e-3:  # viser moves what the camera looks at with its position
+                client.camera.position = np.asarray(client.camera.position, dtype=float) + (target - look)
+        self._ground.position = (GRID_SECTION * round(middle[0] / GRID_SECTION), 0.0, GRID_SECTION * round(middle[2] / GRID_SECTION))
 
     @property
     def rate(self) -> float:
