@@ -76,3 +76,29 @@ def test_between_turns_one_direction_onto_another_the_short_way():
     z = np.array([0.0, 0.0, 1.0])
     half = quat.between(z, np.array([[0.0, 0.0, -1.0], [1e-13, 0.0, -1.0], [0.0, 2.0, 0.0]]))
     np.testing.assert_allclose(quat.rotate(half, z), [[0, 0, -1], [0, 0, -1], [0, 1, 0]], rtol=0, atol=1e-12)
+
+
+def _unwrap_reference(angles: np.ndarray, near: np.ndarray | None = None) -> np.ndarray:
+    """The NumPy loop ``quat.unwrap_euler`` compiles (axis 0): each sample takes the branch nearest the last."""
+    a = np.asarray(angles, dtype=float).copy()
+    alt = np.stack([a[..., 0] + np.pi, np.pi - a[..., 1], a[..., 2] + np.pi], axis=-1)
+    for i in range(0 if near is not None else 1, len(a)):
+        prev = a[i - 1] if i > 0 else np.broadcast_to(np.asarray(near, dtype=float), a[0].shape)
+        cands = [c + 2 * np.pi * np.round((prev - c) / (2 * np.pi)) for c in (a[i], alt[i])]
+        costs = [np.sum((c - prev) ** 2, axis=-1) for c in cands]
+        a[i] = np.where((costs[1] < costs[0])[..., None], cands[1], cands[0])
+    return a
+
+
+def test_unwrap_euler_is_its_reference_and_leaves_no_jump():
+    rng = np.random.default_rng(7)
+    q = quat.normalize(np.cumsum(rng.normal(scale=0.3, size=(400, 5, 4)), axis=0))  # wandering rotations
+    angles = quat.to_euler("zyx", q)
+    for near in (None, rng.uniform(-4, 4, size=(5, 3))):
+        fast = quat.unwrap_euler("zyx", angles, near=near)
+        np.testing.assert_array_equal(fast, _unwrap_reference(angles, near))
+        assert np.abs(np.diff(fast, axis=0)).max() < np.pi
+        np.testing.assert_allclose(quat.to_matrix(quat.from_euler("zyx", fast)), quat.to_matrix(q), rtol=0, atol=1e-9)
+    # along another axis, and one sample
+    np.testing.assert_array_equal(quat.unwrap_euler("zyx", angles.swapaxes(0, 1), axis=1), _unwrap_reference(angles).swapaxes(0, 1))
+    assert quat.unwrap_euler("zyx", angles[:1]).shape == (1, 5, 3)

@@ -23,7 +23,7 @@ from .errors import AdverbsError
 
 # Measured peak of the heaviest path per joint and frame (synthesis with feet planted, then a BVH written): the
 # poses in several forms (rotations, positions, DOFs, Euler channels, text) at 8 bytes a number.
-BYTES_PER_JOINT_FRAME = 1_600
+BYTES_PER_JOINT_FRAME = 400
 _UNITS = {"": 1, "K": 1 << 10, "M": 1 << 20, "G": 1 << 30, "T": 1 << 40}
 
 

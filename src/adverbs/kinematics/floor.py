@@ -45,13 +45,20 @@ class Floor:
         return False
 
 
+LEVEL_LIMIT = 1e4  # metres: a floor level or height beyond this is a mistake (and would overflow what is built on it)
+
+
+def _level(level: float, what: str = "floor level") -> float:
+    if not (math.isfinite(level) and abs(level) <= LEVEL_LIMIT):
+        raise AdverbsError(f"{what} must be a height in metres from {-LEVEL_LIMIT:g} to {LEVEL_LIMIT:g}, got {level}")
+    return float(level)
+
+
 class FlatFloor(Floor):
     """A horizontal floor at ``level`` metres."""
 
     def __init__(self, level: float = 0.0):
-        if not math.isfinite(level):
-            raise AdverbsError(f"floor level must be a finite height in metres, got {level}")
-        self.level = float(level)
+        self.level = _level(level)
 
     def height(self, xz: np.ndarray) -> np.ndarray:
         return np.full(np.shape(xz)[:-1], self.level)
@@ -70,8 +77,7 @@ class SlopeFloor(Floor):
     """A plane through ``(0, level, 0)`` rising ``degrees`` towards the horizontal ``direction`` (default +Z)."""
 
     def __init__(self, degrees: float, direction: tuple[float, float] = (0.0, 1.0), level: float = 0.0):
-        if not math.isfinite(level):
-            raise AdverbsError(f"floor level must be a finite height in metres, got {level}")
+        level = _level(level)
         if not (math.isfinite(degrees) and -80.0 < degrees < 80.0):
             raise AdverbsError(f"slope must be between -80 and 80 degrees, got {degrees}")
         d = np.asarray(direction, dtype=float)
@@ -103,8 +109,8 @@ class HeightMapFloor(Floor):
             raise AdverbsError(
                 f"{name or 'height map'}: heights must be a 2-D grid of at least 2 × 2, got {heights.shape}"
             )
-        if not np.all(np.isfinite(heights)):
-            raise AdverbsError(f"{name or 'height map'}: heights must be finite")
+        if not np.all(np.isfinite(heights) & (np.abs(heights) <= LEVEL_LIMIT)):
+            raise AdverbsError(f"{name or 'height map'}: heights must be finite, from {-LEVEL_LIMIT:g} to {LEVEL_LIMIT:g} m")
         if not (math.isfinite(spacing) and spacing > 0):
             raise AdverbsError(f"{name or 'height map'}: spacing must be positive, got {spacing}")
         z = origin[1] + spacing * np.arange(heights.shape[0])
@@ -144,14 +150,16 @@ class HeightMapFloor(Floor):
 def parse_floor(text: str) -> Floor:
     """``"flat"``, ``"flat:LEVEL"``, ``"slope:DEGREES"`` (rising along +Z) or a height map file."""
     kind, _, value = text.partition(":")
+    if kind not in ("flat", "slope"):
+        return HeightMapFloor.load(text)
     try:
-        if kind == "flat":
-            return FlatFloor(float(value) if value else 0.0)
-        if kind == "slope":
-            return SlopeFloor(float(value))
+        number = float(value) if value or kind == "slope" else 0.0
     except ValueError:
         raise AdverbsError(f"--floor {text!r}: {value!r} is not a number") from None
-    return HeightMapFloor.load(text)
+    try:
+        return FlatFloor(number) if kind == "flat" else SlopeFloor(number)
+    except AdverbsError as e:
+        raise AdverbsError(f"--floor {text!r}: {e}") from None
 
 
 def tilt(normals: np.ndarray) -> np.ndarray:

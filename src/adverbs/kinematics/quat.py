@@ -161,26 +161,16 @@ def unwrap_euler(order: str, angles: np.ndarray, axis: int = 0, near: np.ndarray
     is the one nearest ``near`` (angles broadcasting against one sample), if given, so that several
     sequences land on the same branch. The loop runs over samples, vectorized over every other axis.
     """
+    from ._euler_kernel import unwrap
+
     del order  # the equivalence holds for every Tait–Bryan order
-    a = np.moveaxis(np.asarray(angles, dtype=float), axis, 0).copy()
-    two_pi = 2.0 * np.pi
-    alt = np.stack([a[..., 0] + np.pi, np.pi - a[..., 1], a[..., 2] + np.pi], axis=-1)
-    start = 0 if near is not None else 1
-    for i in range(start, len(a)):
-        prev = a[i - 1] if i > 0 else np.broadcast_to(np.asarray(near, dtype=float), a[0].shape)
-        best = None
-        best_cost = None
-        for cand in (a[i], alt[i]):
-            c = cand + two_pi * np.round((prev - cand) / two_pi)
-            cost = np.sum((c - prev) ** 2, axis=-1)
-            if best is None:
-                best, best_cost = c, cost
-            else:
-                take = cost < best_cost
-                best = np.where(take[..., None], c, best)
-                best_cost = np.where(take, cost, best_cost)
-        a[i] = best
-    return np.moveaxis(a, 0, axis)
+    a = np.moveaxis(np.asarray(angles, dtype=float), axis, 0)
+    shape = a.shape
+    flat = np.ascontiguousarray(a.reshape(len(a), -1, 3))
+    alt = np.stack([flat[..., 0] + np.pi, np.pi - flat[..., 1], flat[..., 2] + np.pi], axis=-1)
+    first = np.zeros(flat.shape[1:]) if near is None else np.broadcast_to(np.asarray(near, dtype=float), shape[1:]).reshape(-1, 3)
+    out = unwrap(flat, alt, np.ascontiguousarray(first), 0 if near is not None else 1) if len(a) else flat
+    return np.moveaxis(out.reshape(shape), 0, axis)
 
 
 def slerp(a: np.ndarray, b: np.ndarray, u: np.ndarray) -> np.ndarray:

@@ -14,6 +14,9 @@ from ..errors import AdverbsError
 from ..kinematics import quat
 from ..kinematics.fk import forward_kinematics
 from ..kinematics.skeleton import Skeleton
+from ..limits import check_frames
+
+MIN_FPS, MAX_FPS = 1e-4, 1e6  # frame rates a BVH file can hold (its Frame Time from 1e-6 s to 1e4 s)
 
 
 @dataclass(eq=False)
@@ -101,15 +104,19 @@ class Clip:
         The new clip starts at the same instant and has every new frame that falls within the
         old clip's duration.
         """
-        if not (np.isfinite(fps) and fps > 0):
-            raise AdverbsError(f"fps must be a positive number, got {fps}")
-        n = int(np.floor(self.duration * fps + 1e-9)) + 1
+        if not (np.isfinite(fps) and MIN_FPS <= fps <= MAX_FPS):
+            raise AdverbsError(f"fps must be a number from {MIN_FPS:g} to {MAX_FPS:g} (a frame time BVH can hold), got {fps}")
+        n = check_frames(np.floor(self.duration * fps + 1e-9) + 1, self.skeleton.num_joints, f"{self.duration:.4g} s at {fps:g} fps")
         return self.at(np.arange(n) * (self.fps / fps), fps)
 
     def at(self, positions: np.ndarray, fps: float | None = None) -> Clip:
         """The motion at fractional frame indices ``positions (G,)`` (clipped to the clip), as a clip at ``fps``
         (default this one's): slerp for rotations, linear for translations."""
-        x = np.clip(np.asarray(positions, dtype=float), 0.0, self.num_frames - 1.0)
+        x = np.asarray(positions, dtype=float)
+        if x.ndim != 1 or not np.all(np.isfinite(x)):
+            raise AdverbsError(f"clip {self.name!r}: frame positions must be a 1-D array of finite numbers, got shape {x.shape}")
+        check_frames(len(x), self.skeleton.num_joints, f"clip {self.name!r} at {len(x)} positions")
+        x = np.clip(x, 0.0, self.num_frames - 1.0)
         rot = quat.slerp_frames(self.rotations, x)
         i0 = np.minimum(np.floor(x).astype(int), max(self.num_frames - 2, 0))
         i1 = np.minimum(i0 + 1, self.num_frames - 1)

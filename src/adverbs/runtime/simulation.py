@@ -36,6 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import AdverbsError, AdverbsWarning
+from ..limits import check_frames
 from ..graph.player import GraphFeet, GraphState, command, new_state, plant, planter, step
 from ..graph.structure import REACH, CommandRefused, Graph
 from ..kinematics.fk import forward_kinematics
@@ -402,6 +403,9 @@ class Simulation:
         seconds = float(seconds)
         if not (math.isfinite(seconds) and 0 < seconds <= MAX_SECONDS):
             raise AdverbsError(f"seconds must be a number in (0, {MAX_SECONDS:g}], got {seconds}")
+        if self.record:  # every creature's frames are kept: refused now rather than out of memory later
+            frames = len(self.frame_times) + seconds * self.fps
+            check_frames(frames, sum(g.graph.skeleton.num_joints * g.size for g in self._groups.values()), f"recording {self.time + seconds:g} s at {self.fps:g} fps")
         self._start()
         self._on_frame, self._on_render, self._progress = on_frame, on_render, progress
         begin, end = self.time, self.time + seconds

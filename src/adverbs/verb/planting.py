@@ -454,6 +454,25 @@ def plant_feet(
     return plant_feet_many(verb, [(clip, keytimes, point)], floor)[0]
 
 
+def _checked_motion(verb: Verb, i: int, motion) -> tuple[Clip, np.ndarray, np.ndarray | None]:
+    """Motion ``i`` as ``(clip, keytimes, point)``, refused unless it can be a motion of ``verb``: its clip on the
+    verb's skeleton, its keytimes as many as the verb's, from 0 and in order, its point one of the verb's."""
+    if not isinstance(motion, tuple | list) or len(motion) not in (2, 3) or not isinstance(motion[0], Clip):
+        raise AdverbsError(f"motion {i}: give (clip, keytimes) or (clip, keytimes, point), got {type(motion).__name__}")
+    clip, keytimes, point = motion[0], motion[1], motion[2] if len(motion) > 2 else None
+    what = f"motion {i} (clip {clip.name!r})"
+    why = verb.skeleton.structure_difference(clip.skeleton)
+    if why is not None:
+        raise AdverbsError(f"{what} is not on the skeleton of verb {verb.name!r}: {why}")
+    k = timewarp.check_keytimes(keytimes, f"{what}: keytimes")
+    if k.shape != verb.generic_keytimes.shape or k[0] < 0:
+        raise AdverbsError(
+            f"{what}: keytimes must be {len(verb.generic_keytimes)} times in seconds from 0 (as synthesize returns "
+            f"them), got shape {k.shape} from {k.flat[0]:g}"
+        )
+    return clip, k, None if point is None else verb.point(point)
+
+
 def plant_feet_many(
     verb: Verb, motions: Sequence[tuple], floor: Floor | None = None
 ) -> list[tuple[Clip, PlantingReport]]:
@@ -462,7 +481,7 @@ def plant_feet_many(
     one batched IK solve.
     """
     floor = FlatFloor(verb.floor) if floor is None else floor
-    motions = [(m[0], m[1], m[2] if len(m) > 2 else None) for m in motions]
+    motions = [_checked_motion(verb, i, m) for i, m in enumerate(motions)]
     if not verb.constraints:
         return [(clip, PlantingReport([], np.zeros(clip.num_frames), 0)) for clip, _, _ in motions]
     # Every creature's planter state advanced together, frame by frame (shorter clips repeat their last

@@ -16,14 +16,16 @@ import numpy as np
 
 from ..errors import AdverbsError, AdverbsWarning
 from ..interp import bspline
+from ..limits import check_frames
 from ..motion.clip import Clip
 from . import sampling
 
 if TYPE_CHECKING:
     from .tables import Verb
 
-MAX_FRAMES = 1_000_000  # per synthesize call: about an hour at 240 fps
+SHORTEST_CYCLE = 0.05  # seconds: a cycle (or one-shot motion) shorter than this has degenerated
 LONGEST_CYCLE = 60.0  # seconds: a cycle (or one-shot motion) longer than this has degenerated
+MAX_FPS = 1e4  # frames per second: far past any capture; a BVH frame time down to 1e-4 s
 WARN_BEYOND = 0.25  # ranges of the examples: farther out than this, synthesize warns
 
 
@@ -43,29 +45,30 @@ def frame_clocks(
     :data:`LONGEST_CYCLE` — named with the adverb ``point`` it came from.
     """
     fps = verb.fps if fps is None else float(fps)
-    if not (np.isfinite(fps) and fps > 0):
-        raise AdverbsError(f"fps must be a positive number, got {fps}")
-    if not (np.isfinite(length) and 2.0 / fps <= length <= LONGEST_CYCLE):
+    if not (np.isfinite(fps) and 0 < fps <= MAX_FPS):
+        raise AdverbsError(f"fps must be a positive number up to {MAX_FPS:g}, got {fps}")
+    if not (np.isfinite(length) and SHORTEST_CYCLE <= length <= LONGEST_CYCLE):
         at = "" if point is None else " at " + ", ".join(f"{n}={v:g}" for n, v in zip(verb.adverb_names, point))
         lo, hi = verb.points.min(axis=0), verb.points.max(axis=0)
         ranges = ", ".join(f"{n} {a:g} .. {b:g}" for n, a, b in zip(verb.adverb_names, lo, hi))
         what = "cycle" if verb.cyclic else "motion"
         raise AdverbsError(
             f"verb {verb.name!r}{at}: the motion degenerates there (one {what} would last {length:.3g} s; "
-            f"it must last from two frames, {2.0 / fps:.3g} s, to {LONGEST_CYCLE:g} s). The examples span {ranges}: "
+            f"it must last from {SHORTEST_CYCLE:g} s to {LONGEST_CYCLE:g} s). The examples span {ranges}: "
             "ask for adverbs nearer them (adverbs synth --clamp keeps them inside)"
         )
+    if length * fps < 2.0:
+        what = "cycle" if verb.cyclic else "motion"
+        raise AdverbsError(f"fps {fps:g} is too low: one {what} ({length:.3g} s) would be less than two frames")
     if cycles is not None and not verb.cyclic and float(cycles) != 1.0:
         raise AdverbsError(f"verb {verb.name!r} is a one-shot motion: it plays once (give a duration instead of cycles)")
     if duration is None:
         duration = length * (1.0 if cycles is None else float(cycles))
     if not (np.isfinite(duration) and duration > 0):
         raise AdverbsError(f"duration must be a positive number of seconds, got {duration}")
-    frames = int(round(duration * fps)) + 1
-    if not 2 <= frames <= MAX_FRAMES:
-        raise AdverbsError(
-            f"{duration:g} s at {fps:g} fps is {frames} frames; synthesize between 2 and {MAX_FRAMES:,} at a time"
-        )
+    frames = check_frames(round(duration * fps) + 1, verb.skeleton.num_joints, f"{duration:g} s at {fps:g} fps")
+    if frames < 2:
+        raise AdverbsError(f"{duration:g} s at {fps:g} fps is {frames} frame; synthesize two or more")
     return np.arange(frames) / fps, fps
 
 

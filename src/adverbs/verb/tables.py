@@ -250,7 +250,13 @@ class Verb:
             for k, v in values.items():
                 p[self.adverb_names.index(k)] = v
         else:
-            p = np.array(values, dtype=float)
+            try:
+                p = np.array(values, dtype=float)
+            except (TypeError, ValueError):
+                raise AdverbsError(
+                    f"verb {self.name!r}: an adverb point is {len(self.adverbs)} numbers ({', '.join(self.adverb_names)}) "
+                    f"or a mapping of them, got {values!r:.80}"
+                ) from None
         if p.shape[-1:] != (len(self.adverbs),):
             raise AdverbsError(f"verb {self.name!r} takes {len(self.adverbs)} adverbs, got {p.shape[-1:]}")
         if not np.all(np.isfinite(p)):
