@@ -250,10 +250,11 @@ def test_load_rejects_other_versions_and_damaged_files(verbs, tmp_path, monkeypa
         return real(*args, **kwargs)
 
     monkeypatch.setattr(np.lib.format, "write_array", fails_on_the_third)
-    with pytest.raises(OSError, match="No space"):
+    with pytest.raises(AdverbsError, match="cannot write: No space left on device") as failed:
         save_verb(verb, good)
+    assert str(failed.value).startswith(f"{good}: ")  # the error names the file
     assert len(calls) == 3 and good.read_bytes() == before
-    assert not list(tmp_path.glob("*.tmp"))
+    assert not [p.name for p in tmp_path.iterdir() if p.name.startswith(".") or p.suffix == ".tmp"]  # no part-written file
     monkeypatch.undo()
     assert np.array_equal(load_verb(good).coefficients, verb.coefficients)
 
@@ -307,9 +308,9 @@ def test_synthesis_arguments_are_checked(verbs):
     p = walk.points[0]
     with pytest.raises(AdverbsError, match="one-shot"):
         reach.synthesize(reach.points[0], cycles=3)
-    with pytest.raises(AdverbsError, match="between 2 and"):
+    with pytest.raises(AdverbsError, match="is 1 frame; synthesize two or more"):
         walk.synthesize(p, duration=0.001)
-    with pytest.raises(AdverbsError, match="between 2 and"):
+    with pytest.raises(AdverbsError, match="the limit is 200,000 per clip"):
         walk.synthesize(p, duration=1e12)
     with pytest.raises(AdverbsError, match="clock time must be a finite"):
         walk.pose(p, float("nan"))

@@ -661,6 +661,9 @@ def main(argv: list[str] | None = None) -> int:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("always", AdverbsWarning)
+            # NumPy's floating-point notes (overflow, invalid value) are not for the user: what matters is checked
+            # and ends in one line naming the file or argument
+            warnings.simplefilter("ignore", RuntimeWarning)
             warnings.showwarning = _show_warning
             _run(args)
     except AdverbsError as e:
@@ -670,7 +673,11 @@ def main(argv: list[str] | None = None) -> int:
         sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - keeps the interpreter's final flush quiet
         return 0
     except OSError as e:  # an output that cannot be written: a directory, no permission, a full disk
-        print(f"adverbs: error: {e.filename or ''}: {e.strerror}", file=sys.stderr)
+        print(f"adverbs: error: {e.filename or 'a file'}: {e.strerror or e}", file=sys.stderr)
+        return 1
+    except MemoryError:
+        print("adverbs: error: out of memory: ask for less (fewer frames or creatures), or lower the limits in "
+              "ADVERBS_MAX_MEMORY so such work is refused before it starts (see adverbs.limits)", file=sys.stderr)  # fmt: skip
         return 1
     return 0
 

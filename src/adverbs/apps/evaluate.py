@@ -115,6 +115,8 @@ class Evaluation:
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
+        from .figures import save_figure
+
         fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(13, 4.5), gridspec_kw={"width_ratios": [3, 1]})
         x = np.arange(len(self.examples))
         width = 0.8 / len(METHODS)
@@ -127,9 +129,7 @@ class Evaluation:
         ax2.bar(METHODS, [np.nan_to_num(np.nanmean(self.adverb_pct[m])) for m in METHODS], color="C1")
         ax2.set_ylabel("adverb error (% of range)")
         ax2.tick_params(axis="x", rotation=45)
-        fig.tight_layout()
-        fig.savefig(path, dpi=110)
-        plt.close(fig)
+        save_figure(fig, Path(path), plt)
 
 
 def _mean(values: np.ndarray, digits: int) -> str:

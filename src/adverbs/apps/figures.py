@@ -78,7 +78,7 @@ def figure(
         raise AdverbsError("--kind run draws a run: give the run's folder or its events.json instead of a verb")
     if kind == "feet":
         fig = _feet(verb, verb.points.mean(axis=0) if point is None else verb.point(point), plt)
-        return _save(fig, output, plt)
+        return save_figure(fig, output, plt)
     if axes is None:
         raise AdverbsError(f"--kind {kind} needs --axes A B: two of {', '.join(verb.adverb_names)}")
     ia, ib = _axes(verb, axes)
@@ -122,7 +122,7 @@ def figure(
         ax.set_title(f"{verb.name}: the examples in adverb space, one example's cardinal weight")
     ax.set_xlabel(axes[0])
     ax.set_ylabel(axes[1])
-    return _save(fig, output, plt)
+    return save_figure(fig, output, plt)
 
 
 def _feet(verb: Verb, point: np.ndarray, plt):
@@ -266,10 +266,11 @@ def run_figure(run: str | Path, output: str | Path) -> Path:
     when.set_xlim(0.0, end)
     when.set_xlabel("time (s)")
     when.set_title("verbs over time")
-    return _save(fig, Path(output), plt)
+    return save_figure(fig, Path(output), plt)
 
 
-def _save(fig, output: Path, plt) -> Path:
+def save_figure(fig, output: Path, plt) -> Path:
+    """Lay out ``fig``, write it to ``output`` whole or not at all (the file type by its extension), and close it."""
     fig.tight_layout()
     try:
         with atomic_path(output) as tmp:

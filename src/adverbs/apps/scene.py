@@ -16,6 +16,7 @@ from ..errors import AdverbsError, AdverbsWarning
 from ..graph import load_graph
 from ..graph.structure import Graph
 from ..io import read_motion
+from ..io.files import write_atomic
 from ..kinematics.floor import parse_floor
 from ..runtime.script import load_script
 from ..runtime.simulation import Simulation
@@ -242,7 +243,7 @@ def demo(out: Path, script: Path = DEMO_SCRIPT) -> dict[str, Path]:
         close()
     paths["filmstrip"] = render(clips, out / "demo.png", panels=8, size=(400, 360), split=True)
     report = {"summary": summary(sim), "feet": _feet(sim, clips), **sim.report()}
-    (out / "report.json").write_text(json.dumps(report, indent=1) + "\n")
+    write_atomic(out / "report.json", (json.dumps(report, indent=1) + "\n").encode())
     paths["report"] = out / "report.json"
     print()
     for line in report["summary"]:

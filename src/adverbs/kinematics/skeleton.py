@@ -2,12 +2,18 @@
 
 Also what can be read off the names: which joints are left/right twins (for mirroring), the
 reflection that maps the rest pose onto itself, and where the feet are.
+
+Every walk of the hierarchy is a loop over the joints in their order (parents come first), never a recursion,
+and what is read off the names (twins, sides, children) is worked out once per skeleton and kept: any query
+costs at most linear time in the number of joints, so a skeleton of thousands of joints, or thousands deep, is
+no slower per joint than a person's.
 """
 
 from __future__ import annotations
 
 import re
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -94,15 +100,43 @@ class Skeleton:
     def num_joints(self) -> int:
         return len(self.names)
 
+    @cached_property
+    def _index(self) -> dict[str, int]:
+        return {n: i for i, n in enumerate(self.names)}
+
     def index(self, name: str) -> int:
         """Index of the joint called ``name``; the error lists the joints there are."""
         try:
-            return self.names.index(name)
-        except ValueError:
+            return self._index[name]
+        except (KeyError, TypeError):
             raise AdverbsError(f"no joint named {name!r}; joints are: {', '.join(self.names)}") from None
 
+    @cached_property
+    def _children(self) -> tuple[tuple[int, ...], ...]:
+        out: list[list[int]] = [[] for _ in range(self.num_joints)]
+        for j, p in enumerate(self.parents.tolist()):
+            if p >= 0:
+                out[p].append(j)
+        return tuple(tuple(c) for c in out)
+
     def children(self, joint: int) -> list[int]:
-        return [int(c) for c in np.flatnonzero(self.parents == joint)]
+        """The joints whose parent is ``joint``, in order (``[0]``, the root, for ``-1``)."""
+        if joint < 0:
+            return [0] if joint == -1 else []
+        return list(self._children[joint])
+
+    def child_lists(self) -> list[list[int]]:
+        """``children(j)`` of every joint ``j``, in linear time."""
+        return [list(c) for c in self._children]
+
+    def below(self, joint: int) -> np.ndarray:
+        """Whether each joint is ``joint`` or hangs below it, ``(J,)`` bool, in linear time."""
+        mask = [False] * self.num_joints
+        mask[joint] = True
+        parents = self.parents.tolist()
+        for j in range(joint + 1, self.num_joints):  # parents come before their children
+            mask[j] = mask[parents[j]]
+        return np.array(mask, dtype=bool)
 
     def ancestors(self, joint: int) -> list[int]:
         """``joint`` and its ancestors up to the root, in that order."""
@@ -172,16 +206,19 @@ class Skeleton:
     # ----- sides, mirroring, feet -------------------------------------------------------------
     def side(self, joint: int) -> str | None:
         """``"left"``, ``"right"`` or ``None`` for a joint that has no twin on the other side."""
-        m = self.mirror_map()
-        if m[joint] == joint:
-            return None
-        return "left" if joint in self._left_joints() else "right"
+        return self._sides[joint]
 
-    def _left_joints(self) -> set[int]:
-        return {left for left, _ in self._side_pairs()}
+    @cached_property
+    def _sides(self) -> tuple[str | None, ...]:
+        sides: list[str | None] = [None] * self.num_joints
+        for left, right in self._side_pairs:
+            sides[left], sides[right] = "left", "right"
+        return tuple(sides)
 
-    def _side_pairs(self) -> list[tuple[int, int]]:
-        index = {n: i for i, n in enumerate(self.names)}
+    @cached_property
+    def _side_pairs(self) -> tuple[tuple[int, int], ...]:
+        """The (left, right) twins, found once per skeleton."""
+        index = self._index
         pairs: list[tuple[int, int]] = []
         paired: set[int] = set()
         for i, name in enumerate(self.names):
@@ -193,12 +230,12 @@ class Skeleton:
                     pairs.append((i, index[twin]))
                     paired.update((i, index[twin]))
                     break
-        return pairs
+        return tuple(pairs)
 
     def mirror_map(self) -> np.ndarray:
         """For each joint, the index of its left/right twin (itself when it has none), ``(J,)``."""
         m = np.arange(self.num_joints)
-        for a, b in self._side_pairs():
+        for a, b in self._side_pairs:
             m[a], m[b] = b, a
         return m
 
@@ -232,6 +269,9 @@ class Skeleton:
                 )
         candidates = np.array([[1.0, 0, 0, 0], [0, 1.0, 0, 0], [0, 0, 1.0, 0], [0, 0, 0, 1.0]])
         reflections = np.array([[-1.0, 1, 1], [1, -1.0, 1], [1, 1, -1.0], [-1.0, -1, -1]])
+        sites: list[list[np.ndarray]] = [[] for _ in range(self.num_joints)]
+        for p, o in zip(self.end_site_parents.tolist(), self.end_site_offsets, strict=True):
+            sites[p].append(o)
         choice = np.full(self.num_joints, 3)
         mismatch = 0.0
         for j in range(self.num_joints):
@@ -241,11 +281,9 @@ class Skeleton:
                 continue
             pairs = []
             for a, b in ((j, t), (t, j)):
-                for c in self.children(a):
+                for c in self._children[a]:
                     pairs.append((self.offsets[m[c]], self.offsets[c]))
-                sa = self.end_site_offsets[self.end_site_parents == a]
-                sb = self.end_site_offsets[self.end_site_parents == b]
-                pairs.extend(zip(sb, sa))
+                pairs.extend(zip(sites[b], sites[a]))
             if not pairs:
                 choice[j] = choice[self.parents[j]] if j > 0 else 3
                 continue
@@ -262,11 +300,12 @@ class Skeleton:
         """The feet found from joint names: per side, the ankle ("foot"/"ankle") and toe ("toe")."""
         feet = []
         for side in ("left", "right"):
-            on_side = [j for j in range(self.num_joints) if self.side(j) == side]
+            on_side = [j for j in range(self.num_joints) if self._sides[j] == side]
             ankle = _first_named(self, on_side, ("foot", "ankle"))
             if ankle is None:
                 continue
-            toe = _first_named(self, [j for j in on_side if ankle in self.ancestors(j)], ("toe",))
+            below = self.below(ankle)
+            toe = _first_named(self, [j for j in on_side if below[j]], ("toe",))
             end_site = None
             if toe is None:
                 ends = np.flatnonzero(self.end_site_parents == ankle)

@@ -509,6 +509,7 @@ class Simulation:
         position channels on the root only; ``"glb"``: ``out/NAME.glb``) and the log of what ran (``out/events.json``).
         Returns the paths by creature name (the first format's), ``NAME.glb`` and so on for the others, and ``"events"``."""
         from ..io import write_motion
+        from ..io.files import write_atomic
 
         kinds = [str(f).lower().lstrip(".") for f in formats]
         bad = [f for f in kinds if f not in ("bvh", "glb")]
@@ -523,7 +524,7 @@ class Simulation:
                 p = write_motion(clip, out / f"{c.name}.{kind}", portable=portable)
                 paths[c.name if k == 0 else f"{c.name}.{kind}"] = p
         events = out / "events.json"
-        events.write_text(json.dumps(self.report(), indent=1) + "\n")
+        write_atomic(events, (json.dumps(self.report(), indent=1) + "\n").encode())
         paths["events"] = events
         return paths
 
