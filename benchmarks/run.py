@@ -8,12 +8,13 @@ Each figure is the median of several timed repeats on this machine.
 from __future__ import annotations
 
 import platform
+import tempfile
 from pathlib import Path
 
 import numpy as np
 from timing import median_seconds, print_table
 
-from adverbs import forward_kinematics, read_bvh
+from adverbs import forward_kinematics, read_bvh, write_bvh
 from adverbs.motion.encoding import DofEncoding
 
 DATA = Path(__file__).resolve().parent.parent / "data"
@@ -26,6 +27,13 @@ def main() -> None:
         size = sum(f.stat().st_size for f in files)
         t = median_seconds(lambda files=files: [read_bvh(f) for f in files], repeats=5)
         rows.append((f"BVH read, {source} ({len(files)} files, {size / 1e6:.1f} MB)", f"{size / 1e6 / t:.1f} MB/s"))
+    # The writer on a long clip (issue 14: 108,000 frames once took 33 s): the CMU walk repeated to 100,000 frames.
+    walk = read_bvh(DATA / "cmu16" / "16_15_walk.bvh")
+    reps = -(-100_000 // walk.num_frames)
+    long = walk.replace(rotations=np.tile(walk.rotations, (reps, 1, 1))[:100_000], translations=np.tile(walk.translations, (reps, 1, 1))[:100_000])
+    with tempfile.TemporaryDirectory() as tmp:
+        t = median_seconds(lambda: write_bvh(long, Path(tmp) / "long.bvh"), repeats=3)
+    rows.append((f"BVH write, 100,000 frames of {walk.skeleton.num_joints} joints", f"{t:.2f} s ({100_000 / t:,.0f} frames/s)"))
 
     for name in ("cmu16/16_15_walk.bvh", "bandai/dataset-1_walk_sad_001.bvh"):
         clip = read_bvh(DATA / name)
