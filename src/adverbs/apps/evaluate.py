@@ -154,7 +154,7 @@ def _pose_positions(verb: Verb, control_points: np.ndarray) -> np.ndarray:
     dofs = bspline.evaluate(control_points, np.linspace(0.0, 1.0, SAMPLES))
     dofs[:, :3] = 0.0  # no travel, no turning: every frame in the character's own frame
     gpos = forward_kinematics(enc.skeleton.parents, *enc.decode(dofs, verb.fps))[0]
-    body = [j for j in range(enc.skeleton.num_joints) if enc.body_root in enc.skeleton.ancestors(j)]
+    body = np.flatnonzero(enc.skeleton.below(enc.body_root)).tolist()
     return gpos[:, body]
 
 

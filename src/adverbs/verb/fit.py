@@ -173,7 +173,7 @@ def _fine_fit_check(
     of the fitted pose's largest joint speed there to the clip's own (frame differences at its rate).
     """
     skel = clip.skeleton
-    body = [j for j in range(skel.num_joints) if enc.body_root in skel.ancestors(j)]
+    body = np.flatnonzero(skel.below(enc.body_root)).tolist()
     t = timewarp.generic_time(np.arange(clip.num_frames) / clip.fps, keytimes, spacing)
     decoded = enc.decode(bspline.evaluate(coefficients, t), clip.fps, enc.start(clip))
     at_frames = np.linalg.norm(forward_kinematics(skel.parents, *decoded)[0][:, body] - clip.global_positions()[:, body], axis=-1)
