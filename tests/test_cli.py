@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import resource
 import subprocess
 from pathlib import Path
 import sys
@@ -13,10 +14,17 @@ from conftest import BANDAI, CMU
 from adverbs import read_bvh
 
 
-def run(*args):
+def run(*args, limits: dict[int, int] | None = None, timeout: float | None = None):
+    """``adverbs ARGS`` in a child process; ``limits``: resource limits it runs under (``{resource.RLIMIT_AS: n}``)."""
+
+    def cap():
+        for kind, n in limits.items():
+            resource.setrlimit(kind, (n, n))
+
     return subprocess.run(
-        [sys.executable, "-m", "adverbs", *map(str, args)], capture_output=True, text=True, check=False
-    )
+        [sys.executable, "-m", "adverbs", *map(str, args)], capture_output=True, text=True, check=False,
+        preexec_fn=cap if limits else None, timeout=timeout,
+    )  # fmt: skip
 
 
 def test_info_json():

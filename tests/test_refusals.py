@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import BANDAI, CMU
+from test_cli import run
 
 from adverbs import AdverbsError, read_bvh
 from adverbs.errors import AdverbsWarning
@@ -33,16 +34,10 @@ def walk_file(verbs, tmp_path_factory):
     return path
 
 
-def _cli(*args, memory: int = 3 << 30) -> tuple[subprocess.CompletedProcess, float]:
+def _cli(*args) -> tuple[subprocess.CompletedProcess, float]:
     """The command in a child process with its address space capped (a blow-up fails instead of swapping)."""
-
-    def cap():
-        resource.setrlimit(resource.RLIMIT_AS, (memory, memory))
-
     started = time.perf_counter()
-    r = subprocess.run(
-        [sys.executable, "-m", "adverbs", *map(str, args)], capture_output=True, text=True, preexec_fn=cap, timeout=120
-    )  # fmt: skip
+    r = run(*args, limits={resource.RLIMIT_AS: 3 << 30}, timeout=120)
     return r, time.perf_counter() - started
 
 

@@ -4,15 +4,14 @@ names the file. Each writer runs in a child process under ``RLIMIT_FSIZE``."""
 
 from __future__ import annotations
 
-import os
 import resource
 import subprocess
-import sys
 import warnings
 from pathlib import Path
 
 import pytest
 from conftest import CMU
+from test_cli import run
 
 from adverbs.errors import AdverbsWarning
 
@@ -34,13 +33,7 @@ def walk(tmp_path_factory):
 
 
 def _adverbs(*args: str, limit: int | None = None) -> subprocess.CompletedProcess:
-    def cap():
-        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
-
-    return subprocess.run(
-        [sys.executable, "-m", "adverbs.apps.cli", *args], capture_output=True, text=True, cwd=ROOT,
-        preexec_fn=cap if limit else None, env={**os.environ, "PYTHONWARNINGS": "ignore"}, timeout=300,
-    )  # fmt: skip
+    return run(*args, limits={resource.RLIMIT_FSIZE: limit} if limit else None, timeout=300)
 
 
 WRITERS = {

@@ -229,9 +229,6 @@ def run_figure(run: str | Path, output: str | Path) -> Path:
     palette = plt.get_cmap("tab10" if len(verbs) <= 10 else "tab20")
     color = {v: np.array(to_rgb(palette(i % palette.N))) for i, v in enumerate(verbs)}
 
-    def colours(t: np.ndarray, line: list) -> np.ndarray:
-        return shade(t, line, color)
-
     fig, (top, when) = plt.subplots(
         2, 1, figsize=(9, 8.5), gridspec_kw={"height_ratios": [3.2, 0.45 + 0.35 * len(names)]}
     )  # fmt: skip
@@ -239,7 +236,7 @@ def run_figure(run: str | Path, output: str | Path) -> Path:
         xy = pos[:, [0, 2]]
         if len(xy) > 1:
             segments = np.stack([xy[:-1], xy[1:]], axis=1)
-            top.add_collection(LineCollection(segments, colors=colours(t[:-1], line), linewidths=2.4))
+            top.add_collection(LineCollection(segments, colors=shade(t[:-1], line, color), linewidths=2.4))
         top.plot(*xy[0], "o", color="k", ms=5)
         top.plot(*xy[-1], "s", color="k", ms=5)
         top.annotate(name, xy[0], textcoords="offset points", xytext=(6, 6), fontsize=9)
@@ -258,7 +255,7 @@ def run_figure(run: str | Path, output: str | Path) -> Path:
     for row, (t, line) in enumerate(zip(times, lines)):
         grid = np.linspace(float(t[0]), float(t[-1]), 600)
         when.imshow(
-            colours(grid, line)[None], extent=(grid[0], grid[-1], row + 0.35, row - 0.35), aspect="auto",
+            shade(grid, line, color)[None], extent=(grid[0], grid[-1], row + 0.35, row - 0.35), aspect="auto",
             interpolation="nearest",
         )  # fmt: skip
     when.set_yticks(range(len(names)), names)
