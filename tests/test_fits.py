@@ -162,16 +162,17 @@ def test_too_many_control_points_names_the_example_and_the_field(tmp_path):
     assert "too few to fit num_cp = 40" in msg and f"at most {shortest.clip.num_frames}" in msg
 
 
-def _root_path_rates(verb, p, cycles=6):
+def _root_path_rates(verb, p, cycles=6, make=None):
     """Speed (m/s) and turn rate (deg/s) in steady state, from the body root's path alone.
 
     Repeated cycles are rigid copies of each other, so the body root's ground positions at the cycle
     starts lie on a circle (a line when the walk goes straight): the angle between consecutive chords
     is one cycle's turn, and the speed is the turn rate times the body root's mean distance from the
     circle's centre (the chord over the period when it goes straight). The first cycle is left out
-    (the seam blend begins with the second).
+    (the seam blend begins with the second). ``make(verb, p, cycles)`` gives the clip and keytimes (default:
+    ``verb.synthesize``).
     """
-    clip, k = verb.synthesize(p, cycles=cycles)
+    clip, k = (make or (lambda v, q, n: v.synthesize(q, cycles=n)))(verb, p, cycles)
     period = k[-1]
     root = clip.global_positions()[:, verb.encoding.body_root][:, [0, 2]]
     time = np.arange(clip.num_frames) / clip.fps

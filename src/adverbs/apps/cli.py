@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import AdverbsError, AdverbsWarning
+from ..graph.performance import repeat
 from ..io import motion_format, read_motion, write_motion
 from ..kinematics.floor import parse_floor
 from ..motion.clip import Clip
@@ -42,7 +43,6 @@ from ..motion.contacts import find_contacts
 from ..verb.fit import verb_from
 from ..verb.planting import foot_drift, measure_feet, plant_feet
 from ..verb.store import load_verb, save_verb
-from ..verb.synthesis import render
 from ..verb.tables import Verb
 from . import scene
 from .evaluate import DATA, METHODS, evaluate, held_out, predict
@@ -592,15 +592,26 @@ def _run(args: argparse.Namespace) -> None:
             why = "--no-ik leaves the feet where the verb puts them" if args.no_ik else "the verb has no constraints"
             raise AdverbsError(f"--floor places the feet on the ground, but {why}")
         if args.method == "ours":
-            clip, k = verb.synthesize(p, duration=args.duration, cycles=args.cycles, fps=args.fps)
+            source = verb
         else:
-            cp, k = predict(args.method, verb, p)
-            clip, k = render(verb, cp, k, duration=args.duration, cycles=args.cycles, fps=args.fps, point=p)
+            predicted = predict(args.method, verb, p)
+            if predicted is None:
+                raise AdverbsError(f"--method {args.method} cannot predict from the {len(verb.examples)} examples of {verb.name!r}")
+            source = verb.playing(*predicted, p, name=f"{verb.name} by {args.method}")
+        wanted = args.duration if args.duration is not None else (args.cycles or 1.0) * source.duration(p)
+        if source.cyclic and wanted > source.duration(p) * (1.0 + 1e-9):
+            # More than one cycle: each goes on into the next through the verb's loop into itself (§5).
+            looped, k = repeat(source, p, duration=args.duration, cycles=args.cycles, fps=args.fps, floor=floor)
+            free, clip, report = looped.free, looped.planted, looped.report
+        else:
+            free, k = source.synthesize(p, duration=args.duration, cycles=args.cycles, fps=args.fps)
+            clip, report = free, None
         feet = "feet not planted (--no-ik)"
         if verb.constraints and not args.no_ik:
-            raw = foot_drift(verb, clip, k, verb.weights(p))
-            clip, report = plant_feet(verb, clip, k, floor, p)
-            metrics = measure_feet(verb, clip, report, floor)
+            raw = foot_drift(source, free, k, source.weights(p))
+            if report is None:
+                clip, report = plant_feet(source, free, k, floor, p)
+            metrics = measure_feet(source, clip, report, floor)
             feet = (
                 f"feet planted: {metrics.line()} (toe drift without IK {1000 * np.median(raw):.1f} / "
                 f"{1000 * raw.max():.1f} mm)"
@@ -609,7 +620,9 @@ def _run(args: argparse.Namespace) -> None:
             )
             for warning in report.warnings:
                 print(f"adverbs: warning: {warning}", file=sys.stderr)
-        elif not verb.constraints:
+        else:
+            clip = free
+        if not verb.constraints:
             feet = "the verb has no constraints"
         write_motion(clip, args.output, portable=args.portable)
         values = ", ".join(f"{n}={v:g}" for n, v in zip(verb.adverb_names, p)) or "its one example"

@@ -46,7 +46,6 @@ from ..kinematics.fk import forward_kinematics
 from ..verb.fit import build_from_spec
 from ..verb.measures import measure_all
 from ..verb.planting import foot_drift, measure_feet, plant_feet
-from ..verb.synthesis import render
 from ..verb.tables import Verb
 
 METHODS = ("nearest", "linear", "idw", "scipy-rbf", "ours", "ours-auto")
@@ -144,7 +143,8 @@ def _measured(verb: Verb) -> list[int]:
 
 def measure_motion(verb: Verb, control_points: np.ndarray, keytimes: np.ndarray) -> np.ndarray:
     """Measured adverb values ``(M,)`` of one cycle rendered from control points and keytimes."""
-    clip, k = render(verb, control_points, keytimes, fps=max(verb.fps, 60.0))
+    one = verb.playing(control_points, keytimes)
+    clip, k = one.synthesize(one.points[0], fps=max(verb.fps, 60.0))
     return measure_all(clip, k, [verb.adverbs[i].measure for i in _measured(verb)])
 
 

@@ -142,6 +142,7 @@ class GraphState:
     alone: np.ndarray | None = None
     stay: np.ndarray | None = None
     held_before: np.ndarray | None = None
+    moving: np.ndarray | None = None
     latencies: list[tuple[int, str, float]] = field(default_factory=list)
     caches: dict = field(default_factory=dict)
 
@@ -542,6 +543,8 @@ def step(state: GraphState, dt: float) -> Frame:
     if not (math.isfinite(dt) and dt > 0):
         raise AdverbsError(f"dt must be a positive number of seconds, got {dt}")
     state.time += dt
+    if state.moving is None:  # the first step without a first frame: the velocities where the creatures start
+        state.moving = _sample(state, state.g, state.g_into).velocity
     _advance(state, dt)
     base = _sample(state, state.g, state.g_into)
     rows = np.flatnonzero(state.rebase)
@@ -551,7 +554,7 @@ def step(state: GraphState, dt: float) -> Frame:
         # Carry on from what was shown: the offset is (shown − verbs) a frame ago, its velocity the difference
         # of their velocities since.
         before = _sample(state, *_back(state, rows, dt))
-        state.offset_root[rows] = state.shown[2][rows] - before.velocity[rows]
+        state.offset_root[rows] = state.moving[rows] - before.velocity[rows]
     vel = base.velocity.copy()
     state.offset_since += dt
     if before is not None:
@@ -559,7 +562,10 @@ def step(state: GraphState, dt: float) -> Frame:
     live = np.flatnonzero(state.offset_since < 12.0 * state.offset_halflife)
     t, h = state.offset_since[live, None], state.offset_halflife[live, None]
     vel[live] += _spring(state.offset_root[live], 0.0, t, h)
-    new_root = advance_root(state.root, vel, dt)
+    # The root moves at the velocities of the step's start, as a clip's velocity columns say (a frame's velocity is
+    # its step to the next): a verb playing alone travels exactly as its synthesized clip does.
+    new_root = advance_root(state.root, state.moving, dt)
+    state.moving = vel
     rot, trans = _decode(state, base, new_root)
     if before is not None:
         rot0, trans0 = _decode(state, before, state.root)
@@ -590,6 +596,23 @@ def step(state: GraphState, dt: float) -> Frame:
     state.shown_before, state.shown = state.shown, (rot, trans, vel)
     state.held_before = held
     return Frame(rot, trans, new_root.copy(), vel, held, roll)
+
+
+def first_frame(state: GraphState) -> Frame:
+    """The frame the creatures show where they start, before any :func:`step`: time 0 of a recording.
+
+    Nothing moves: each verb is sampled where it stands, the root where it was put; the next :func:`step`
+    carries on from this frame as from any other shown.
+    """
+    if np.any(state.time != 0.0):
+        raise AdverbsError("first_frame: the creatures have already moved (it is the frame before any step)")
+    base = _sample(state, state.g, state.g_into)
+    rot, trans = _decode(state, base, state.root)
+    held, roll = hold_phases(state)
+    state.alone = state.active < 0
+    state.moving = base.velocity.copy()
+    state.shown, state.held_before = (rot, trans, base.velocity.copy()), held
+    return Frame(rot, trans, state.root.copy(), base.velocity.copy(), held, roll)
 
 
 def _velocity(old: np.ndarray, new: np.ndarray, dt: float) -> np.ndarray:

@@ -4,8 +4,8 @@
 lives in :class:`~adverbs.graph.player.GraphState`). A :class:`Transition` from verb A to verb B is a
 correspondence region in each verb's generic time, ``[t_s^A, t_e^A]`` and ``[t_s^B, t_e^B]``, and a
 likelihood, used to draw among the ways out of a verb when nothing was asked for. Every cyclic verb
-has a transition into itself (the graph's own, or one the graph adds: ``[1 − LOOP, 1] → [1 − LOOP, 1]``,
-the last part of one cycle blended with the same part of the next, so a cycle follows itself through
+has a transition into itself (the graph's own, or one the graph adds, :func:`loop_region` in both: the last
+``LOOP`` of one cycle's clock time blended with the same part of the next, so a cycle follows itself through
 the same machinery as any other transition).
 
 The planner (:meth:`Graph.path`) finds the path with the fewest transitions (breadth first; among
@@ -31,6 +31,17 @@ from ..verb.tables import Verb
 BLENDS = ("cosine", "inertial")
 REACH = 0.5  # how far past its examples a graph plays an adverb, in spans of the examples (each side)
 LOOP = 0.25  # the fraction of a cycle over which a cyclic verb's own loop blends one cycle into the next
+
+
+def loop_region(verb: Verb) -> tuple[float, float]:
+    """The generic-time region ``(start, 1)`` of a cyclic verb's loop into itself: its last :data:`LOOP` of clock time
+    at the examples' mean.
+
+    In clock time, not generic: a run's last keytime interval (toe-off to strike) can be two frames, and a loop
+    over the last quarter of generic time would be that short.
+    """
+    k = verb.keytimes(verb.points.mean(axis=0))
+    return float(np.interp((1.0 - LOOP) * k[-1], k, verb.generic_keytimes)), 1.0
 
 
 @dataclass(frozen=True)
@@ -143,7 +154,7 @@ class Graph:
         loops = [1.0] * len(verbs) if loop_likelihoods is None else list(loop_likelihoods)
         for i, v in enumerate(verbs):
             if v.cyclic and not any(t.source == i and t.target == i for t in edges):
-                region = (1.0 - LOOP, 1.0)
+                region = loop_region(v)
                 edges.append(Transition(i, i, region, region, float(loops[i]), "cosine", True, True))
         for i, v in enumerate(verbs):
             if not any(t.source == i for t in edges):

@@ -16,7 +16,7 @@ from .planting import (
 from .sampling import SamplingState, advance, dofs_reference, sample, sample_reference
 from .spec import SpecError, load_spec
 from .store import load_verb, save_verb
-from .synthesis import render, synthesize, synthesize_dofs
+from .synthesis import synthesize, synthesize_dofs
 from .tables import Adverb, Example, ExampleRecord, Verb
 
 __all__ = [
@@ -41,7 +41,6 @@ __all__ = [
     "plant_feet",
     "plant_feet_many",
     "planted_drift",
-    "render",
     "sample",
     "sample_reference",
     "save_verb",

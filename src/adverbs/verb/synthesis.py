@@ -15,7 +15,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import AdverbsError, AdverbsWarning
-from ..interp import bspline
 from ..limits import check_frames
 from ..motion.clip import Clip
 from . import sampling
@@ -72,14 +71,16 @@ def frame_clocks(
     return np.arange(frames) / fps, fps
 
 
-def synthesize_dofs(
+def plan(
     verb: Verb,
     p: np.ndarray,
     duration: float | None = None,
     cycles: float | None = None,
     fps: float | None = None,
-) -> tuple[np.ndarray, np.ndarray, float]:
-    """DOFs ``(F, D)`` of one creature at ``p`` at every frame, its keytimes ``(N,)`` and the frame rate."""
+) -> tuple[np.ndarray, sampling.SamplingState, np.ndarray, float]:
+    """What a synthesis at ``p`` will sample, checked before any heavy work: the point ``(A,)``, its sampling state
+    (one creature), the clock times ``(F,)`` of the frames and the frame rate. Warns when ``p`` lies more than
+    :data:`WARN_BEYOND` of the examples' ranges outside them."""
     p = verb.point(p)
     beyond = verb.outside(p)
     if beyond.size and beyond.max() > WARN_BEYOND:
@@ -89,11 +90,23 @@ def synthesize_dofs(
             f"{verb.adverbs[i].name}={p[i]:g} is {beyond[i]:.2g} ranges outside the examples ({lo:g} .. {hi:g}): "
             "the motion is extrapolated that far",
             AdverbsWarning,
-            stacklevel=3,
+            stacklevel=4,
         )
     state = sampling.SamplingState.new(verb, 1)
     state.update(verb, p[None])
     clocks, fps = frame_clocks(verb, state.keytimes[0, -1], duration, cycles, fps, p)
+    return p, state, clocks, fps
+
+
+def synthesize_dofs(
+    verb: Verb,
+    p: np.ndarray,
+    duration: float | None = None,
+    cycles: float | None = None,
+    fps: float | None = None,
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """DOFs ``(F, D)`` of one creature at ``p`` at every frame, its keytimes ``(N,)`` and the frame rate."""
+    _, state, clocks, fps = plan(verb, p, duration, cycles, fps)
     return sampling.clocks_dofs(verb, state, np.zeros(len(clocks), dtype=np.int64), clocks), state.keytimes[0].copy(), fps
 
 
@@ -111,33 +124,4 @@ def synthesize(
     ``duration`` in seconds overrides it. The root starts at ``start = (x, z, heading)``.
     """
     dofs, k, fps = synthesize_dofs(verb, p, duration, cycles, fps)
-    return verb.encoding.decode_clip(dofs, fps, start, name=verb.name), k
-
-
-def render(
-    verb: Verb,
-    control_points: np.ndarray,
-    keytimes: np.ndarray,
-    duration: float | None = None,
-    cycles: float | None = None,
-    fps: float | None = None,
-    start: Sequence[float] = (0.0, 0.0, 0.0),
-    point: np.ndarray | None = None,
-) -> tuple[Clip, np.ndarray]:
-    """Motion from any control points ``(NumCP, D)`` and keytimes ``(N,)`` on ``verb``'s encoding.
-
-    For curves that are not the verb's own interpolation (other interpolators, in ``evaluate``):
-    the same kernel reading a one-example table, ``w = [1]``. ``point``, the adverb point they were
-    predicted at, is named in errors.
-    """
-    cp = np.asarray(control_points, dtype=float)
-    k = np.asarray(keytimes, dtype=float)
-    if cp.shape != (verb.num_cp, verb.num_dofs) or k.shape != (verb.num_keytimes,):
-        raise AdverbsError(f"render: control points {cp.shape} and keytimes {k.shape} do not fit verb {verb.name!r}")
-    v0, _, v1, _ = bspline.ends(cp)
-    clocks, fps = frame_clocks(verb, k[-1], duration, cycles, fps, point)
-    dofs = sampling.run_kernel(
-        np.ascontiguousarray(cp[:, None, :] / 6.0), np.ones((1, 1)), k[None], verb.generic_keytimes, (v1 - v0)[None],
-        np.zeros(len(clocks)), clocks, sampling.mode(verb),
-    )  # fmt: skip
     return verb.encoding.decode_clip(dofs, fps, start, name=verb.name), k

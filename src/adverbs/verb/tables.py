@@ -23,6 +23,7 @@ Building the tables is :func:`adverbs.verb.fit.build_verb`, saving and loading t
 from __future__ import annotations
 
 from collections.abc import Sequence
+import dataclasses
 from dataclasses import dataclass, field
 from functools import cached_property
 
@@ -314,6 +315,27 @@ class Verb:
         """All control points ``(..., NumCP, D)`` at ``p`` (eq. 3); ``weights`` if already known."""
         w = self.weights(p) if weights is None else weights
         return np.tensordot(w, self.coefficients, axes=(-1, 0))
+
+    def playing(
+        self, control_points: np.ndarray, keytimes: np.ndarray, p: np.ndarray | None = None, name: str = ""
+    ) -> Verb:
+        """A one-example verb that plays curves ``control_points (NumCP, D)`` at ``keytimes (N,)`` whatever its adverbs:
+        another interpolator's prediction at adverb point ``p``, played by everything a verb is played by.
+
+        Its encoding, constraints and holds are this verb's (the holds' times those at ``p``); its one example
+        stands at ``p`` (default: the examples' mean).
+        """
+        p = self.point(self.points.mean(axis=0) if p is None else p)
+        cp, k = np.asarray(control_points, dtype=float), np.asarray(keytimes, dtype=float)
+        if cp.shape != (self.num_cp, self.num_dofs) or k.shape != (self.num_keytimes,):
+            raise AdverbsError(f"verb {self.name!r}: control points {cp.shape} and keytimes {k.shape} do not fit it")
+        opens = np.array([h.open for h in self.holds]).reshape(-1, 1)
+        spans = self.hold_times(self.weights(p)) - opens
+        name = name or self.name
+        return dataclasses.replace(
+            self, name=name, examples=(ExampleRecord(name, "", ""),), points=p[None], keytimes_table=k[None],
+            coefficients=cp[None], hold_table=spans[None], smoothing=0.0, shrinkage=0.0,
+        )  # fmt: skip
 
     def duration(self, p: np.ndarray) -> float:
         """Clock duration ``K_N(p)`` of one cycle (or of the whole motion) at one point ``p (A,)``."""
