@@ -26,6 +26,7 @@ from adverbs.graph import (
     planter,
     step,
 )
+from adverbs.graph.player import clock_of, generic_of
 from adverbs.interp import timewarp
 from adverbs.kinematics import quat
 from adverbs.motion.clip import Clip
@@ -453,3 +454,21 @@ def test_one_verb_plays_over_and_over_as_a_graph_of_its_own(verbs, tmp_path):
     assert load_for_view(tmp_path / "reach.verb", progress=False)[0].verb_names == (reach.name,)
     with pytest.raises(AdverbsError, match="nothing.toml: no such graph or verb spec file"):
         load_for_view(tmp_path / "nothing.toml", progress=False)
+
+
+def test_the_compiled_time_warps_are_the_numpy_ones():
+    """clock_of / generic_of (compiled, row by row) against timewarp's NumPy functions on the cycle a time falls in,
+    over random keytimes and times from the cycle before to the cycle after next."""
+    rng = np.random.default_rng(3)
+    n = 2000
+    keys = np.concatenate([np.zeros((n, 1)), np.cumsum(rng.uniform(0.03, 0.6, (n, 4)), axis=1)], axis=1)
+    generic = np.array([0.0, 0.2, 0.45, 0.8, 1.0])
+    g = np.concatenate([rng.uniform(-1.5, 2.5, n - 5), [0.0, 1.0, -1.0, 0.2, 0.9999999]])
+    lap = np.floor(g)
+    want = timewarp.clock_time(g - lap, keys, generic) + lap * keys[:, -1]
+    clock = clock_of(g, keys, generic)
+    np.testing.assert_array_equal(clock, want)
+    end = keys[:, -1]
+    lap_c = np.floor(clock / end)
+    np.testing.assert_array_equal(generic_of(clock, keys, generic), timewarp.generic_time(clock - lap_c * end, keys, generic) + lap_c)
+    np.testing.assert_allclose(generic_of(clock, keys, generic), g, rtol=0, atol=1e-12)

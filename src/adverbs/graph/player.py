@@ -47,7 +47,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import AdverbsError
-from ..interp import timewarp
 from ..kinematics import quat
 from ..kinematics.fk import forward_kinematics
 from ..verb._sampling_kernel import GENERIC, VELOCITIES
@@ -55,6 +54,7 @@ from ..kinematics.floor import Floor
 from ..motion.encoding import advance_root
 from ..verb.planting import BALL, FREE, FootPlanter, effector_joints, hold_modes
 from ..verb.sampling import SamplingState, run_kernel
+from ._time_kernel import clock_rows, generic_rows
 from .structure import CommandRefused, Graph
 
 INERTIAL_HALFLIFE = 0.2  # of a transition's duration: the half-life of an inertial offset's decay
@@ -70,16 +70,23 @@ def blend_weight(beta: np.ndarray) -> np.ndarray:
 
 
 def clock_of(g: np.ndarray, keytimes: np.ndarray, generic: np.ndarray) -> np.ndarray:
-    """Clock time of generic time ``g (n,)`` under each row's ``keytimes (n, N)``; ``g < 0`` is the previous cycle."""
-    lap = np.floor(g)
-    return timewarp.clock_time(g - lap, keytimes, generic) + lap * keytimes[:, -1]
+    """Clock time of generic time ``g (n,)`` under each row's ``keytimes (n, N)``; ``g < 0`` is the previous cycle.
+
+    :func:`~adverbs.interp.timewarp.clock_time` on the cycle ``g`` falls in, plus the whole cycles before it;
+    compiled (:mod:`._time_kernel`).
+    """
+    g = np.ascontiguousarray(g, dtype=float)
+    out = np.empty(len(g))
+    clock_rows(g, np.ascontiguousarray(keytimes, dtype=float), np.ascontiguousarray(generic, dtype=float), out)
+    return out
 
 
 def generic_of(clock: np.ndarray, keytimes: np.ndarray, generic: np.ndarray) -> np.ndarray:
     """Generic time of clock time ``clock (n,)``: the inverse of :func:`clock_of`."""
-    end = keytimes[:, -1]
-    lap = np.floor(clock / end)
-    return timewarp.generic_time(clock - lap * end, keytimes, generic) + lap
+    clock = np.ascontiguousarray(clock, dtype=float)
+    out = np.empty(len(clock))
+    generic_rows(clock, np.ascontiguousarray(keytimes, dtype=float), np.ascontiguousarray(generic, dtype=float), out)
+    return out
 
 
 def duration(
@@ -143,6 +150,7 @@ class GraphState:
     stay: np.ndarray | None = None
     held_before: np.ndarray | None = None
     moving: np.ndarray | None = None
+    fresh: set | None = None
     latencies: list[tuple[int, str, float]] = field(default_factory=list)
     caches: dict = field(default_factory=dict)
 
@@ -311,7 +319,10 @@ def _sampling(state: GraphState, v: int, slot: int) -> SamplingState:
     s = state.caches.get(key)
     if s is None:
         s = state.caches[key] = SamplingState.new(verb, state.creatures)
-    s.update(verb, graph.verb_points(v, state.points))
+    if state.fresh is None or key not in state.fresh:  # within a step the adverbs hold still: once is enough
+        s.update(verb, graph.verb_points(v, state.points))
+        if state.fresh is not None:
+            state.fresh.add(key)
     return s
 
 
@@ -542,6 +553,14 @@ def step(state: GraphState, dt: float) -> Frame:
     dt = float(dt)
     if not (math.isfinite(dt) and dt > 0):
         raise AdverbsError(f"dt must be a positive number of seconds, got {dt}")
+    state.fresh = set()  # the sampling caches brought up to date once in this step (see _sampling)
+    try:
+        return _step(state, dt)
+    finally:
+        state.fresh = None
+
+
+def _step(state: GraphState, dt: float) -> Frame:
     state.time += dt
     if state.moving is None:  # the first step without a first frame: the velocities where the creatures start
         state.moving = _sample(state, state.g, state.g_into).velocity

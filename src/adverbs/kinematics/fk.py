@@ -7,6 +7,7 @@ from functools import lru_cache
 import numpy as np
 
 from . import quat
+from ._fk_kernel import forward
 
 
 def forward_kinematics(
@@ -28,9 +29,28 @@ def forward_kinematics(
     positions : (..., J, 3)
     global_rotations : (..., J, 4)
 
-    ``g_j = g_parent · l_j`` and ``p_j = p_parent + g_parent · t_j``, one depth level of the tree
-    at a time (all joints at that depth together), every other axis vectorized.
+    ``g_j = g_parent · l_j`` and ``p_j = p_parent + g_parent · t_j``, joint after joint, compiled
+    (:mod:`._fk_kernel`); :func:`forward_kinematics_reference` is the same in NumPy.
     """
+    parents = np.asarray(parents)
+    _levels(parents)  # checks the tree
+    rotations = np.asarray(rotations, dtype=float)
+    translations = np.asarray(translations, dtype=float)
+    shape = np.broadcast_shapes(rotations.shape[:-1], translations.shape[:-1])
+    j = shape[-1]
+    rot = np.ascontiguousarray(np.broadcast_to(rotations, shape + (4,))).reshape(-1, j, 4)
+    trans = np.ascontiguousarray(np.broadcast_to(translations, shape + (3,))).reshape(-1, j, 3)
+    gpos = np.empty(trans.shape)
+    grot = np.empty(rot.shape)
+    forward(parents.astype(np.int64, copy=False), rot, trans, gpos, grot)
+    return gpos.reshape(shape + (3,)), grot.reshape(shape + (4,))
+
+
+def forward_kinematics_reference(
+    parents: np.ndarray, rotations: np.ndarray, translations: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`forward_kinematics` in NumPy, one depth level of the tree at a time (all joints at that depth
+    together), every other axis vectorized: the reference the compiled kernel is held to."""
     parents = np.asarray(parents)
     rotations = np.asarray(rotations, dtype=float)
     translations = np.asarray(translations, dtype=float)
@@ -49,20 +69,8 @@ def forward_kinematics(
 
 
 @lru_cache(maxsize=64)
-def _levels_cached(parents: tuple[int, ...]) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
-    depth = [0] * len(parents)
-    for j in range(1, len(parents)):
-        depth[j] = depth[parents[j]] + 1
-    depth_arr = np.array(depth)
-    out = []
-    for d in range(1, int(depth_arr.max(initial=0)) + 1):
-        joints = np.flatnonzero(depth_arr == d)
-        out.append((joints, np.array([parents[j] for j in joints])))
-    return tuple(out)
-
-
-def _levels(parents: np.ndarray) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
-    """Joints grouped by depth below the root, with their parents, deepest last."""
+def _levels_cached(key: bytes) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
+    parents = np.frombuffer(key, dtype=np.int64)
     if (
         len(parents) == 0
         or parents[0] != -1
@@ -70,7 +78,20 @@ def _levels(parents: np.ndarray) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
         or np.any(parents[1:] < 0)
     ):
         raise ValueError("parents must start with the root (-1) and list every parent before its children")
-    return _levels_cached(tuple(int(p) for p in parents))
+    depth = [0] * len(parents)
+    for j in range(1, len(parents)):
+        depth[j] = depth[parents[j]] + 1
+    depth_arr = np.array(depth)
+    out = []
+    for d in range(1, int(depth_arr.max(initial=0)) + 1):
+        joints = np.flatnonzero(depth_arr == d)
+        out.append((joints, parents[joints].copy()))
+    return tuple(out)
+
+
+def _levels(parents: np.ndarray) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
+    """Joints grouped by depth below the root, with their parents, deepest last (the tree checked, once per tree)."""
+    return _levels_cached(np.asarray(parents, dtype=np.int64).tobytes())
 
 
 def end_site_positions(
