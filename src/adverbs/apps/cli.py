@@ -598,8 +598,9 @@ def _run(args: argparse.Namespace) -> None:
             if predicted is None:
                 raise AdverbsError(f"--method {args.method} cannot predict from the {len(verb.examples)} examples of {verb.name!r}")
             source = verb.playing(*predicted, p, name=f"{verb.name} by {args.method}")
-        wanted = args.duration if args.duration is not None else (args.cycles or 1.0) * source.duration(p)
-        if source.cyclic and wanted > source.duration(p) * (1.0 + 1e-9):
+        cycle = source.duration(p)
+        wanted = args.duration if args.duration is not None else (args.cycles or 1.0) * cycle
+        if source.cyclic and wanted > cycle * (1.0 + 1e-9):
             # More than one cycle: each goes on into the next through the verb's loop into itself (§5).
             looped, k = repeat(source, p, duration=args.duration, cycles=args.cycles, fps=args.fps, floor=floor)
             free, clip, report = looped.free, looped.planted, looped.report
