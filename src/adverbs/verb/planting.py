@@ -20,12 +20,16 @@ Per effector, with ``g`` the frame's generic time and :class:`~adverbs.verb.cons
   raises it; it is let go at ``h.close`` (toe-off), or once the verb has lifted it ``LIFTS_OFF``.
 * **Free** (swing, flight): the verb's effector, lowered near the ground by how far the verb's stance
   hovered over its floor (at extrapolated adverbs the verb can lift the whole stance), never below the
-  floor plus the contact height.
+  floor plus the contact height. The verb's level is the lowest its foot got over the hold (rolling off
+  included: a toe joint dips as the foot pivots on its ball), so the foot clears the ground by as much
+  as the verb's own does, and a rolling ball rises over that level as the verb's rises over it.
 * **Switches are inertialized**: the gap between where the foot was shown and where the new rule puts
   it is an offset that decays to zero as a critically damped spring (``x(t) = (x₀ + (v₀ + y x₀) t)
   e^{−y t}``). At release ``v₀`` cancels the verb's horizontal foot velocity, so the foot leaves from
   rest, and the vertical part decays faster than the horizontal one, so it lifts before it travels; the
   turn the foot still had to make decays the same way. At landing nothing slides: only the height settles.
+  A released foot's height offset is kept over the floor under where it is shown: up a slope, the
+  horizontal offset carries it over other ground than the verb's foot is over.
 
 The legs are then solved by :func:`adverbs.kinematics.ik.solve` with each foot's target and wanted
 orientation. The root is lowered where a leg cannot reach its target and eases back up (``DROP_HALFLIFE``).
@@ -178,7 +182,10 @@ class FootPlanter:
         self.since += dt
         vel = (free_pos - self.prev_free) / np.where(dt > 0, dt, np.inf)
         # A ball the verb lifts off its level rolls the foot off it too, whatever the examples' heel-off says.
-        raised = _lowered(lift, self.hover)
+        # Held, over the level this hold has found so far (the lowest the verb's foot got since it landed,
+        # rolling off included): the ball rises as far over it as the verb's does, and leaves at that height.
+        level = np.where((self.mode != FREE) & np.isfinite(self.ground), np.minimum(self.ground, lift), self.hover)
+        raised = _lowered(lift, level)
         turn = np.where(self.mode == BALL, np.maximum(turn, _smoothstep((raised - STILL_DOWN) / (LIFTS_OFF - STILL_DOWN))), turn)
         # A rolling foot the verb already lifts off (its ball LIFTS_OFF above its own contact level) is let go
         # before the hold's toe-off, and not held again until the next hold.
@@ -202,6 +209,9 @@ class FootPlanter:
             self.rel_vec[closing] = quat.log(np.where(q[..., 3:] < 0.0, -q, q))  # the short way round
             self.rot_since[closing] = 0.0
             self.offset[closing] = shown[closing] - base[closing]  # let go from where it was shown
+            # Its height as a height over the floor under it: on a slope the decaying horizontal offset
+            # carries the foot over other ground than the verb's foot is over.
+            self.offset[closing, 1] -= self._ground_shift(shown, base)[closing]
             self.offset_vel[closing] = -vel[closing] * _AT_REST  # leaves from rest horizontally, rises as the verb lifts it
             self.since[closing] = 0.0
             self.settle[closing] = False
@@ -224,10 +234,10 @@ class FootPlanter:
             self._land(balls, shown[balls], np.where(follows[balls], np.nan, height[balls]))
             self.held_rot[balls] = self._released_rot(free_rot)[balls]
             self.mode[balls] = BALL
-        # The verb's own level at these adverbs: the lowest its foot gets while flat, taken at toe-off.
-        flat = (self.mode == BALL) & (turn == 0.0)
+        # The verb's own level at these adverbs: the lowest its foot gets while held, taken at toe-off.
+        held = self.mode != FREE
         self.ground = np.where(opening, np.inf, self.ground)
-        self.ground = np.where(flat, np.minimum(self.ground, lift), self.ground)
+        self.ground = np.where(held, np.minimum(self.ground, lift), self.ground)
         self.turn = turn
         self.rising = np.where(follows, 0.0, np.maximum(raised, 0.0) * turn)
         self.prev_free[:] = free_pos
@@ -260,6 +270,7 @@ class FootPlanter:
         free_rot = self._released_rot(free_rot)
         free_wanted = self._tilt(base[..., [0, 2]]) @ free_rot
         shown = base + self._offset()
+        shown[..., 1] += np.where(follows, 0.0, self._ground_shift(shown, base))
         low = self.floor.height(shown[..., [0, 2]]) + height
         shown[..., 1] = np.where(follows, shown[..., 1], np.maximum(shown[..., 1], low))
         held_at = self._shown_held()
@@ -272,6 +283,10 @@ class FootPlanter:
         rocker = held_at + np.einsum("...ij,...j->...i", wanted, self.chains.tip_offset)
         shown = np.where((self.mode == BALL)[..., None], held_at, np.where((self.mode == HEEL)[..., None], rocker, shown))
         return shown, wanted
+
+    def _ground_shift(self, shown: np.ndarray, base: np.ndarray) -> np.ndarray:
+        """How much higher the floor is under ``shown`` than under ``base`` (``(C, L)``; 0 on a flat floor)."""
+        return self.floor.height(shown[..., [0, 2]]) - self.floor.height(base[..., [0, 2]])
 
     def _offset(self) -> np.ndarray:
         """The decaying offset of the free rule now, ``(C, L, 3)`` (zero where a landing's is decaying)."""
