@@ -201,7 +201,7 @@ class FootPlanter:
         free_wanted = self._tilt(base[..., [0, 2]]) @ free_rot
         self.rot_since += dt[..., 0]
         # Rolling off: the ball rises as the verb's does over its contact level, weighted in as the heel lifts.
-        self.rising = np.where(follows, 0.0, np.maximum(raised, 0.0) * self.turn)
+        self.rising = np.where(follows, 0.0, np.maximum(raised, 0.0) * turn)
         shown, wanted = self._shown(base, height, follows, free_rot, free_wanted, self.turn)  # before anything switches
         if closing.any():  # let go: what the foot's orientation had still to turn decays from here
             rel = wanted[closing] @ np.swapaxes(free_wanted[closing], -1, -2)
