@@ -35,6 +35,12 @@ def _points(verb):
     return [verb.points[0], (verb.points[0] + verb.points[far]) / 2, verb.points.mean(axis=0)]
 
 
+def _looped_clip(verb, p, cycles):
+    """``repeat``'s unplanted clip and one cycle's keytimes, as ``_root_path_rates`` takes them."""
+    performance, keytimes = repeat(verb, p, cycles=cycles)
+    return performance.free, keytimes
+
+
 @pytest.mark.parametrize("name", CYCLIC)
 def test_a_loop_plays_the_verb_itself_until_its_first_blend(verbs, run_verbs, name):
     verb = _verb(verbs, run_verbs, name)
@@ -77,7 +83,7 @@ def test_looped_cycles_keep_the_asked_speed_and_turn(verbs, run_verbs, name):
     span = np.ptp(verb.points, axis=0)
     checked = 0
     for p in verb.points:
-        looped = _root_path_rates(verb, p, make=lambda v, q, n: (lambda r: (r[0].free, r[1]))(repeat(v, q, cycles=n)))
+        looped = _root_path_rates(verb, p, make=_looped_clip)
         for i, a in enumerate(verb.adverb_names):
             kind = {"speed": 0, "turn_rate": 1}.get(kinds[a])
             if kind is not None:

@@ -239,7 +239,6 @@ class FootPlanter:
         self.ground = np.where(opening, np.inf, self.ground)
         self.ground = np.where(held, np.minimum(self.ground, lift), self.ground)
         self.turn = turn
-        self.rising = np.where(follows, 0.0, np.maximum(raised, 0.0) * turn)
         self.prev_free[:] = free_pos
         shown, wanted = self._shown(base, height, follows, free_rot, free_wanted, turn)
         return shown, wanted
@@ -270,8 +269,9 @@ class FootPlanter:
         free_rot = self._released_rot(free_rot)
         free_wanted = self._tilt(base[..., [0, 2]]) @ free_rot
         shown = base + self._offset()
-        shown[..., 1] += np.where(follows, 0.0, self._ground_shift(shown, base))
-        low = self.floor.height(shown[..., [0, 2]]) + height
+        under = self.floor.height(shown[..., [0, 2]])
+        shown[..., 1] += np.where(follows, 0.0, under - self.floor.height(base[..., [0, 2]]))  # see _ground_shift
+        low = under + height
         shown[..., 1] = np.where(follows, shown[..., 1], np.maximum(shown[..., 1], low))
         held_at = self._shown_held()
         held_tilt = self._tilt(self.target[..., [0, 2]])
