@@ -16,32 +16,46 @@ from numba import njit
 
 @njit(cache=True)
 def clock_rows(g, keytimes, generic, out):  # pragma: no cover - compiled
-    """``out[i]``: clock time of generic time ``g[i]`` under ``keytimes[i]`` (``g < 0``, ``g ≥ 1``: other cycles)."""
+    """``out[i, j]``: clock time of generic time ``g[i, j]`` under ``keytimes[i]`` (``g < 0``, ``g ≥ 1``: other cycles)."""
     n = generic.shape[0]
     for i in range(g.shape[0]):
-        lap = math.floor(g[i])
-        t = g[i] - lap
-        m = 0
-        for k in range(1, n - 1):
-            if generic[k] <= t:
-                m += 1
-        m = min(max(m, 0), n - 2)
-        k0, k1 = keytimes[i, m], keytimes[i, m + 1]
-        out[i] = (k0 + (t - generic[m]) / (generic[m + 1] - generic[m]) * (k1 - k0)) + lap * keytimes[i, n - 1]
+        for j in range(g.shape[1]):
+            out[i, j] = _clock(g[i, j], keytimes[i], generic, n)
+
+
+@njit(cache=True, inline="always")
+def _clock(g, keytimes, generic, n):  # pragma: no cover - compiled
+    """Clock time of generic time ``g`` under one row of ``keytimes (N,)``."""
+    lap = math.floor(g)
+    t = g - lap
+    m = 0
+    for k in range(1, n - 1):
+        if generic[k] <= t:
+            m += 1
+    m = min(max(m, 0), n - 2)
+    k0, k1 = keytimes[m], keytimes[m + 1]
+    return (k0 + (t - generic[m]) / (generic[m + 1] - generic[m]) * (k1 - k0)) + lap * keytimes[n - 1]
 
 
 @njit(cache=True)
 def generic_rows(clock, keytimes, generic, out):  # pragma: no cover - compiled
-    """``out[i]``: generic time of clock time ``clock[i]`` under ``keytimes[i]``: the inverse of :func:`clock_rows`."""
+    """``out[i, j]``: generic time of clock time ``clock[i, j]`` under ``keytimes[i]``: the inverse of :func:`clock_rows`."""
     n = generic.shape[0]
     for i in range(clock.shape[0]):
-        end = keytimes[i, n - 1]
-        lap = math.floor(clock[i] / end)
-        c = clock[i] - lap * end
-        m = 0
-        for k in range(1, n - 1):
-            if keytimes[i, k] <= c:
-                m += 1
-        m = min(max(m, 0), n - 2)
-        k0, k1 = keytimes[i, m], keytimes[i, m + 1]
-        out[i] = (generic[m] + (generic[m + 1] - generic[m]) * (c - k0) / (k1 - k0)) + lap
+        for j in range(clock.shape[1]):
+            out[i, j] = _generic(clock[i, j], keytimes[i], generic, n)
+
+
+@njit(cache=True, inline="always")
+def _generic(clock, keytimes, generic, n):  # pragma: no cover - compiled
+    """Generic time of clock time ``clock`` under one row of ``keytimes (N,)``."""
+    end = keytimes[n - 1]
+    lap = math.floor(clock / end)
+    c = clock - lap * end
+    m = 0
+    for k in range(1, n - 1):
+        if keytimes[k] <= c:
+            m += 1
+    m = min(max(m, 0), n - 2)
+    k0, k1 = keytimes[m], keytimes[m + 1]
+    return (generic[m] + (generic[m + 1] - generic[m]) * (c - k0) / (k1 - k0)) + lap

@@ -51,6 +51,7 @@ from ..kinematics import quat
 from ..kinematics.fk import forward_kinematics
 from ..verb._sampling_kernel import GENERIC, VELOCITIES
 from ..kinematics.floor import Floor
+from ..motion._pose_kernel import blend_poses, root_velocities
 from ..motion.encoding import advance_root
 from ..verb.planting import BALL, FREE, FootPlanter, effector_joints, hold_modes
 from ..verb.sampling import SamplingState, run_kernel
@@ -70,23 +71,26 @@ def blend_weight(beta: np.ndarray) -> np.ndarray:
 
 
 def clock_of(g: np.ndarray, keytimes: np.ndarray, generic: np.ndarray) -> np.ndarray:
-    """Clock time of generic time ``g (n,)`` under each row's ``keytimes (n, N)``; ``g < 0`` is the previous cycle.
+    """Clock time of generic times ``g (n,)`` or ``(n, k)`` under each row's ``keytimes (n, N)``; ``g < 0`` is the
+    previous cycle.
 
     :func:`~adverbs.interp.timewarp.clock_time` on the cycle ``g`` falls in, plus the whole cycles before it;
     compiled (:mod:`._time_kernel`).
     """
-    g = np.ascontiguousarray(g, dtype=float)
-    out = np.empty(len(g))
-    clock_rows(g, np.ascontiguousarray(keytimes, dtype=float), np.ascontiguousarray(generic, dtype=float), out)
-    return out
+    return _rows(clock_rows, g, keytimes, generic)
 
 
 def generic_of(clock: np.ndarray, keytimes: np.ndarray, generic: np.ndarray) -> np.ndarray:
-    """Generic time of clock time ``clock (n,)``: the inverse of :func:`clock_of`."""
-    clock = np.ascontiguousarray(clock, dtype=float)
-    out = np.empty(len(clock))
-    generic_rows(clock, np.ascontiguousarray(keytimes, dtype=float), np.ascontiguousarray(generic, dtype=float), out)
-    return out
+    """Generic time of clock times ``clock (n,)`` or ``(n, k)``: the inverse of :func:`clock_of`."""
+    return _rows(generic_rows, clock, keytimes, generic)
+
+
+def _rows(kernel, x: np.ndarray, keytimes: np.ndarray, generic: np.ndarray) -> np.ndarray:
+    x = np.asarray(x, dtype=float)
+    grid = np.ascontiguousarray(x.reshape(len(x), -1))
+    out = np.empty(grid.shape)
+    kernel(grid, np.ascontiguousarray(keytimes, dtype=float), np.ascontiguousarray(generic, dtype=float), out)
+    return out.reshape(x.shape)
 
 
 def duration(
@@ -320,26 +324,43 @@ def _sampling(state: GraphState, v: int, slot: int) -> SamplingState:
     if s is None:
         s = state.caches[key] = SamplingState.new(verb, state.creatures)
     if state.fresh is None or key not in state.fresh:  # within a step the adverbs hold still: once is enough
-        s.update(verb, graph.verb_points(v, state.points))
+        if s.update(verb, graph.verb_points(v, state.points)) and verb.holds:
+            state.caches[key, "holds"] = verb.hold_times(s.weights)  # when each creature's feet land and lift
         if state.fresh is not None:
             state.fresh.add(key)
     return s
 
 
+def _hold_times(state: GraphState, v: int, slot: int) -> np.ndarray:
+    """Verb ``v``'s hold times ``(C, L, 3)`` at every creature's adverbs in slot 0 (A) or 1 (B) (see :meth:`Verb.hold_times`)."""
+    _sampling(state, v, slot)
+    return state.caches[(v, slot), "holds"]
+
+
+def _by_verb(verbs: np.ndarray, rows: np.ndarray) -> list[tuple[int, np.ndarray | slice]]:
+    """The verbs ``verbs[rows]`` plays, each with which of ``rows`` play it (a mask, or every one: ``slice(None)``)."""
+    vs = verbs[rows]
+    if len(vs) == 0:
+        return []
+    first = vs[0]
+    if len(vs) == 1 or not np.any(vs != first):  # one creature, or a crowd all in one verb: no sorting
+        return [(int(first), slice(None))]
+    return [(int(v), vs == v) for v in np.unique(vs)]
+
+
 def _warp(state: GraphState, verbs: np.ndarray, x: np.ndarray, slot: int, rows: np.ndarray, to_clock: bool) -> np.ndarray:
-    """``x (n,)`` of the creatures ``rows`` in their verbs ``verbs[rows]`` (slot A or B), generic times turned to
-    clock times (``to_clock``) or back, under each creature's keytimes."""
-    out = np.zeros(len(rows))
+    """``x (n,)`` or ``(n, k)`` of the creatures ``rows`` in their verbs ``verbs[rows]`` (slot A or B), generic times
+    turned to clock times (``to_clock``) or back, under each creature's keytimes."""
+    out = np.zeros(np.shape(x))
     convert = clock_of if to_clock else generic_of
-    for v in np.unique(verbs[rows]):
-        sel = verbs[rows] == v
-        keys = _sampling(state, int(v), slot).keytimes[rows[sel]]
-        out[sel] = convert(x[sel], keys, state.graph.verbs[int(v)].generic_keytimes)
+    for v, sel in _by_verb(verbs, rows):
+        keys = _sampling(state, v, slot).keytimes[rows[sel]]
+        out[sel] = convert(x[sel], keys, state.graph.verbs[v].generic_keytimes)
     return out
 
 
 def _clock(state: GraphState, verbs: np.ndarray, g: np.ndarray, slot: int, rows: np.ndarray) -> np.ndarray:
-    """Clock times ``(n,)`` of generic times ``g (n,)``; see :func:`_warp`."""
+    """Clock times of generic times ``g (n,)`` or ``(n, k)``; see :func:`_warp`."""
     return _warp(state, verbs, g, slot, rows, True)
 
 
@@ -432,38 +453,40 @@ def _place(state: GraphState, rows: np.ndarray) -> None:
     """Put A and B of the creatures ``rows`` in transition where ``β`` says: each clock through its region."""
     if len(rows) == 0:
         return
-    inertial = state.inertial[rows]
-    sa, ea, sb, eb = state.regions[rows].T
+    ca, cb = _region_clocks(state, rows)
     beta = state.beta[rows]
-    ca0, ca1 = _clock(state, state.verb, sa, 0, rows), _clock(state, state.verb, ea, 0, rows)
-    cb0, cb1 = _clock(state, state.into, sb, 1, rows), _clock(state, state.into, eb, 1, rows)
-    state.g[rows] = _generic(state, state.verb, ca0 + beta * (ca1 - ca0), 0, rows)
+    state.g[rows] = _generic(state, state.verb, ca[:, 0] + beta * (ca[:, 1] - ca[:, 0]), 0, rows)
     # B runs through its region, or (inertial) by its own clock from the region's start.
-    cb = np.where(inertial, cb0 + beta * state.length[rows], cb0 + beta * (cb1 - cb0))
-    state.g_into[rows] = _generic(state, state.into, cb, 1, rows)
+    run = np.where(state.inertial[rows], state.length[rows], cb[:, 1] - cb[:, 0])
+    state.g_into[rows] = _generic(state, state.into, cb[:, 0] + beta * run, 1, rows)
+
+
+def _region_clocks(state: GraphState, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Clock times ``(n, 2)`` of the start and end of A's region and of B's in the transitions of ``rows``."""
+    regions = state.regions[rows]
+    return _clock(state, state.verb, regions[:, :2], 0, rows), _clock(state, state.into, regions[:, 2:], 1, rows)
 
 
 def _rates(state: GraphState, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """How fast A's and B's clocks run in the transitions of ``rows`` (seconds of verb per second)."""
-    sa, ea, sb, eb = state.regions[rows].T
-    ca = _clock(state, state.verb, ea, 0, rows) - _clock(state, state.verb, sa, 0, rows)
-    cb = _clock(state, state.into, eb, 1, rows) - _clock(state, state.into, sb, 1, rows)
-    return ca / state.length[rows], np.where(state.inertial[rows], 1.0, cb / state.length[rows])
+    ca, cb = _region_clocks(state, rows)
+    length = state.length[rows]
+    return (ca[:, 1] - ca[:, 0]) / length, np.where(state.inertial[rows], 1.0, (cb[:, 1] - cb[:, 0]) / length)
 
 
 def _dofs(state: GraphState, verbs: np.ndarray, g: np.ndarray, slot: int, rows: np.ndarray) -> dict[int, tuple[np.ndarray, np.ndarray]]:
     """DOFs of each verb at generic times ``g (C,)`` for the creatures ``rows``: verb → (its rows, DOFs (n, D))."""
     out = {}
-    for v in np.unique(verbs[rows]):
-        sel = rows[verbs[rows] == v]
-        verb = state.graph.verbs[int(v)]
-        s = _sampling(state, int(v), slot)
+    for v, which in _by_verb(verbs, rows):
+        sel = rows[which]
+        verb = state.graph.verbs[v]
+        s = _sampling(state, v, slot)
         lap = np.floor(g[sel])
         local = np.clip(g[sel] - lap, 0.0, 1.0)
         d = run_kernel(verb.segments, s.weights, s.keytimes, verb.generic_keytimes, s.seam, sel, local, GENERIC)
         if verb.cyclic:  # the pose of another cycle: shifted by the seam (the velocities: see _sample)
             d[:, VELOCITIES:] += lap[:, None] * s.seam[sel, VELOCITIES:]
-        out[int(v)] = (sel, d)
+        out[v] = (sel, d)
     return out
 
 
@@ -515,18 +538,16 @@ def _decode(state: GraphState, base: _Base, root: np.ndarray) -> tuple[np.ndarra
     n = state.creatures
 
     def decoded(slot: dict) -> tuple[np.ndarray, np.ndarray]:
-        rot, trans = np.tile(quat.identity((j,)), (n, 1, 1)), np.zeros((n, j, 3))
+        rot, trans = np.empty((n, j, 4)), np.empty((n, j, 3))
         for v, (sel, d) in slot.items():
-            rot[sel], trans[sel] = state.graph.verbs[v].encoding.decode_pose(d, root[sel])
+            state.graph.verbs[v].encoding.decode_into(d, root[sel], sel, rot, trans)
         return rot, trans
 
     rot, trans = decoded(base.a)
     if base.b:
         rot_b, trans_b = decoded(base.b)
         r = np.flatnonzero(state.active >= 0)
-        w = base.alpha[r]
-        rot[r] = quat.slerp(rot_b[r], rot[r], np.broadcast_to(w[:, None], rot[r].shape[:-1]))
-        trans[r] = w[:, None, None] * trans[r] + (1.0 - w[:, None, None]) * trans_b[r]
+        blend_poses(rot, trans, rot_b, trans_b, r, np.ascontiguousarray(base.alpha[r]))
     return rot, trans
 
 
@@ -635,11 +656,10 @@ def first_frame(state: GraphState) -> Frame:
 
 
 def _velocity(old: np.ndarray, new: np.ndarray, dt: float) -> np.ndarray:
-    """The root velocities ``(C, 3)`` (sideways, forward, turn) that take roots ``old`` to ``new`` in ``dt``."""
-    turn = (new[:, 2] - old[:, 2]) / dt
-    d = np.stack([new[:, 0] - old[:, 0], np.zeros(len(new)), new[:, 1] - old[:, 1]], axis=1) / dt
-    v = quat.rotate(quat.about_y(-0.5 * (old[:, 2] + new[:, 2])), d)
-    return np.stack([v[:, 0], v[:, 2], turn], axis=1)
+    """The root velocities ``(C, 3)`` (sideways, forward, turn) that take roots ``old`` to ``new`` in ``dt`` (compiled)."""
+    out = np.empty(old.shape)
+    root_velocities(np.ascontiguousarray(old), np.ascontiguousarray(new), float(dt), out)
+    return out
 
 
 def _keep_feet(
@@ -659,10 +679,9 @@ def _keep_feet(
     """
     if state.shown is None or state.held_before is None:
         return root
-    ts = state.graph.transitions
-    blending = offset.copy()
-    moving = np.flatnonzero(state.active >= 0)
-    blending[moving] |= ~state.inertial[moving] & np.array([ts[k].source != ts[k].target for k in state.active[moving]], dtype=bool)
+    blending = offset | ((state.active >= 0) & ~state.inertial & state.graph.between_verbs[state.active])
+    if not blending.any():
+        return root
     rows = np.flatnonzero(blending)
     w = (held & state.held_before)[rows] * (1.0 - roll[rows])
     rows, w = rows[w.sum(axis=1) > 0], w[w.sum(axis=1) > 0]
@@ -690,33 +709,31 @@ def hold_phases(state: GraphState) -> tuple[np.ndarray, np.ndarray]:
     both verbs hold it (released by either, released) and has rolled as far as the further of the two.
     """
     graph = state.graph
-    tips = list(graph.feet)
     c = state.creatures
-    held = np.zeros((c, len(tips)), dtype=bool)
-    roll = np.zeros((c, len(tips)))
     c_all = np.arange(c)
     moving = c_all[state.active >= 0]
     inertial = (state.active >= 0) & state.inertial
 
     def phases(verbs: np.ndarray, g: np.ndarray, slot: int, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        h = np.zeros((c, len(tips)), dtype=bool)
-        r = np.zeros((c, len(tips)))
-        for v in np.unique(verbs[rows]):
-            verb = graph.verbs[int(v)]
+        h = np.zeros((c, len(graph.feet)), dtype=bool)
+        r = np.zeros((c, len(graph.feet)))
+        for v, which in _by_verb(verbs, rows):
+            verb = graph.verbs[v]
             if not verb.holds:
                 continue
-            sel = rows[verbs[rows] == v]
-            times = verb.hold_times(_sampling(state, int(v), slot).weights[sel])
-            opens = np.array([x.open for x in verb.holds])
+            sel = rows[which]
+            opens, cols = graph.hold_layout[v]
             gg = g[sel] - np.floor(g[sel]) if verb.cyclic else np.clip(g[sel], 0.0, 1.0)
-            inside, turn = hold_modes(verb.cyclic, gg[:, None], opens, times)
-            cols = [tips.index(j) for j in effector_joints(verb)]
+            inside, turn = hold_modes(verb.cyclic, gg[:, None], opens, _hold_times(state, v, slot)[sel])
             h[np.ix_(sel, cols)] = inside
             r[np.ix_(sel, cols)] = turn
         return h, r
 
     ha, ra = phases(state.verb, state.g, 0, c_all[~inertial])
-    hb, rb = phases(state.into, state.g_into, 1, moving)
+    if len(moving):
+        hb, rb = phases(state.into, state.g_into, 1, moving)
+    else:
+        return ha, ra
     alone = state.active < 0
     held = np.where(alone[:, None], ha, np.where(inertial[:, None], hb, ha & hb))
     roll = np.where(alone[:, None], ra, np.where(inertial[:, None], rb, np.maximum(ra, rb)))

@@ -202,6 +202,19 @@ class Graph:
         return tuple(out)
 
     @cached_property
+    def between_verbs(self) -> np.ndarray:
+        """Whether each transition goes from one verb to another ``(T,)`` (not a loop into itself)."""
+        return np.array([t.source != t.target for t in self.transitions], dtype=bool)
+
+    @cached_property
+    def hold_layout(self) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
+        """Per verb: its holds' opening generic times ``(L_v,)`` and which of :attr:`feet` each hold is ``(L_v,)``."""
+        return tuple(
+            (np.array([h.open for h in v.holds]), np.array([self.feet.index(j) for j in effector_joints(v)], dtype=np.int64))
+            for v in self.verbs
+        )
+
+    @cached_property
     def inverse_above_body(self) -> np.ndarray:
         """The inverse of the rest rotation of the joint above the body root ``(4,)`` (identity when it has none)."""
         skel, enc = self.skeleton, self.verbs[0].encoding

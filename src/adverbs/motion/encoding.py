@@ -28,6 +28,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -36,6 +37,7 @@ from ..errors import AdverbsError
 from ..kinematics import quat
 from ..kinematics.fk import forward_kinematics
 from ..kinematics.skeleton import Skeleton
+from . import _pose_kernel
 from .clip import Clip
 from .heading import HEADING_SMOOTHING, character_heading, lateral_axis
 
@@ -154,10 +156,20 @@ class DofEncoding:
     def num_dofs(self) -> int:
         return len(self.names)
 
-    @property
+    @cached_property
     def rotated(self) -> np.ndarray:
         """Joints with rotation columns, body root first (then skeleton order)."""
         return np.flatnonzero(_below(self.skeleton, self.body_root))
+
+    @cached_property
+    def _above_body(self) -> tuple[bool, np.ndarray, np.ndarray]:
+        """Whether the body root has (fixed) ancestors, the inverse of their global rotation ``(4,)`` and their
+        position ``(3,)``: the frame a decoded body root is expressed in."""
+        above = self.skeleton.ancestors(self.body_root)[1:]
+        if not above:
+            return False, quat.identity(), np.zeros(3)
+        apos, arot = forward_kinematics(self.skeleton.parents, quat.identity((self.skeleton.num_joints,)), self.base_translations)
+        return True, quat.inv(arot[above[0]]), apos[above[0]]
 
     def _check(self, clip: Clip) -> None:
         why = self.skeleton.structure_difference(clip.skeleton)
@@ -255,8 +267,36 @@ class DofEncoding:
         """Local rotations ``(..., J, 4)`` and translations ``(..., J, 3)`` of poses ``dofs (..., D)``.
 
         The body root stands at ``root (..., 3)`` = ``(x, z, heading)`` (from :meth:`root_path` or
-        :meth:`advance_root`), at the height in its ``root.y`` column.
+        :meth:`advance_root`), at the height in its ``root.y`` column. Log-quaternion DOFs are decoded by a
+        compiled loop (:mod:`._pose_kernel`), Euler ones by :meth:`_decode_pose_reference`.
         """
+        dofs = self._checked(dofs, 1)
+        if self.kind != "logquat":
+            return self._decode_pose_reference(dofs, root)
+        lead = dofs.shape[:-1]
+        j = self.skeleton.num_joints
+        flat = np.ascontiguousarray(dofs.reshape(-1, dofs.shape[-1]))
+        roots = np.ascontiguousarray(np.broadcast_to(np.asarray(root, dtype=float), lead + (3,)).reshape(-1, 3))
+        rot, trans = np.empty((len(flat), j, 4)), np.empty((len(flat), j, 3))
+        self.decode_into(flat, roots, np.arange(len(flat)), rot, trans)
+        return rot.reshape(lead + (j, 4)), trans.reshape(lead + (j, 3))
+
+    def decode_into(self, dofs: np.ndarray, roots: np.ndarray, rows: np.ndarray, rot: np.ndarray, trans: np.ndarray) -> None:
+        """:meth:`decode_pose` of ``dofs (n, D)`` at ``roots (n, 3)`` written into rows ``rows (n,)`` of ``rot (C, J, 4)``
+        and ``trans (C, J, 3)`` (C-contiguous float arrays): how a caller gathers poses of several verbs into
+        one array without copies. Log-quaternion encodings only (a run-time path); others use :meth:`decode_pose`."""
+        if self.kind != "logquat":
+            rot[rows], trans[rows] = self._decode_pose_reference(dofs, roots)
+            return
+        has_parent, parent_inv, parent_pos = self._above_body
+        _pose_kernel.decode_logquat(
+            np.ascontiguousarray(dofs, dtype=float), np.ascontiguousarray(roots, dtype=float),
+            np.ascontiguousarray(rows, dtype=np.int64), self.rotated, self.reference, self.translated,
+            self.base_translations, self.body_root, parent_inv, parent_pos, has_parent, rot, trans,
+        )  # fmt: skip
+
+    def _decode_pose_reference(self, dofs: np.ndarray, root: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`decode_pose` in NumPy, for either encoding: the readable version the compiled loop follows."""
         dofs = self._checked(dofs, 1)
         root = np.asarray(root, dtype=float)
         lead = dofs.shape[:-1]
@@ -274,13 +314,10 @@ class DofEncoding:
 
         # The body root's global transform, expressed below its (fixed) ancestors.
         g_root = quat.mul(quat.about_y(h), rotations[..., body, :])
-        above = skel.ancestors(body)[1:]
-        if above:
-            apos, arot = forward_kinematics(skel.parents, quat.identity((skel.num_joints,)), self.base_translations)
-            parent = above[0]
-            inv_parent = quat.inv(arot[parent])
+        has_parent, inv_parent, parent_pos = self._above_body
+        if has_parent:
             rotations[..., body, :] = quat.mul(inv_parent, g_root)
-            translations[..., body, :] = quat.rotate(inv_parent, p - apos[parent])
+            translations[..., body, :] = quat.rotate(inv_parent, p - parent_pos)
         else:
             rotations[..., body, :] = g_root
             translations[..., body, :] = p
@@ -325,6 +362,15 @@ def advance_root(root: np.ndarray, velocity: np.ndarray, dt: float | np.ndarray)
     through the step (the midpoint rule). :meth:`DofEncoding.advance_root` is this on a pose's root columns."""
     root = np.asarray(root, dtype=float)
     velocity = np.asarray(velocity, dtype=float)
+    if root.ndim == 2 and velocity.shape == root.shape and root.shape[1] == 3 and np.ndim(dt) == 0:  # a crowd: compiled
+        out = np.empty(root.shape)
+        _pose_kernel.advance_roots(np.ascontiguousarray(root), np.ascontiguousarray(velocity), float(dt), out)
+        return out
+    return _advance_root_reference(root, velocity, dt)
+
+
+def _advance_root_reference(root: np.ndarray, velocity: np.ndarray, dt: float | np.ndarray) -> np.ndarray:
+    """:func:`advance_root` in NumPy, for any leading axes (the compiled loop writes out the same arithmetic)."""
     h0 = root[..., 2]
     h1 = h0 + velocity[..., 2] * dt
     v = np.stack([velocity[..., 0], np.zeros_like(velocity[..., 0]), velocity[..., 1]], axis=-1)

@@ -113,16 +113,16 @@ class SamplingState:
         if len(self.points) != creatures:
             raise AdverbsError(f"sampling state holds {len(self.points)} creatures, got {creatures} adverb points")
 
-    def update(self, verb: Verb, points: np.ndarray) -> None:
-        """Recompute the cached rows of creatures whose adverb point differs from ``points (C, A)``."""
+    def update(self, verb: Verb, points: np.ndarray) -> bool:
+        """Recompute the cached rows of creatures whose adverb point differs from ``points (C, A)``; whether any did."""
         if len(points) == 1:  # one creature: a byte comparison is the cheapest test
             if self.cached[0] and points.tobytes() == self.points.tobytes():
-                return
+                return False
             changed = np.zeros(1, dtype=np.int64)
         else:
             changed = np.flatnonzero(~self.cached | np.any(points != self.points, axis=1))
             if len(changed) == 0:
-                return
+                return False
         p = points[changed]
         if not np.all(np.isfinite(p)):
             bad = verb.adverb_names[int(np.flatnonzero(~np.isfinite(p).all(axis=0))[0])]
@@ -134,6 +134,7 @@ class SamplingState:
             self.points, changed, *verb.interpolator.kernel_tables, verb.log_intervals, verb.seam_table[:, :d],
             self.weights, self.keytimes, self.seam[:, :d],
         )  # fmt: skip
+        return True
 
 
 def mode(verb: Verb) -> int:
