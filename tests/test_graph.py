@@ -26,11 +26,14 @@ from adverbs.graph import (
     planter,
     step,
 )
-from adverbs.graph.player import clock_of, generic_of
+from adverbs.graph._time_kernel import hold_rows
+from adverbs.graph.player import _velocity, clock_of, generic_of
 from adverbs.interp import timewarp
 from adverbs.kinematics import quat
 from adverbs.motion.clip import Clip
-from adverbs.verb.planting import BALL, effector_joints, measure_feet, planted_drift
+from adverbs.motion._pose_kernel import blend_poses
+from adverbs.motion.encoding import advance_root
+from adverbs.verb.planting import BALL, effector_joints, hold_modes, measure_feet, planted_drift
 from adverbs.verb.store import save_verb
 
 GRAPHS = Path(__file__).resolve().parent.parent / "graphs"
@@ -472,3 +475,67 @@ def test_the_compiled_time_warps_are_the_numpy_ones():
     lap_c = np.floor(clock / end)
     np.testing.assert_array_equal(generic_of(clock, keys, generic), timewarp.generic_time(clock - lap_c * end, keys, generic) + lap_c)
     np.testing.assert_allclose(generic_of(clock, keys, generic), g, rtol=0, atol=1e-12)
+
+
+def test_stacked_time_warps_are_the_single_ones():
+    """clock_of / generic_of of ``(n, k)`` times: each column as if converted alone."""
+    rng = np.random.default_rng(4)
+    keys = np.concatenate([np.zeros((50, 1)), np.cumsum(rng.uniform(0.03, 0.6, (50, 4)), axis=1)], axis=1)
+    generic = np.array([0.0, 0.2, 0.45, 0.8, 1.0])
+    g = rng.uniform(-1.0, 2.0, (50, 3))
+    for convert in (clock_of, generic_of):
+        out = convert(g, keys, generic)
+        for k in range(3):
+            np.testing.assert_array_equal(out[:, k], convert(g[:, k], keys, generic))
+
+
+def test_the_compiled_blend_is_slerp_and_lerp():
+    """blend_poses against quat.slerp (from B to A by the weight) and a linear blend, on random rotations of both signs,
+    nearly opposite ones and weights 0 (A unset: B's pose) to 1; rows it is not given stay as they were."""
+    rng = np.random.default_rng(5)
+    c, j = 40, 7
+    a = quat.normalize(rng.normal(size=(c, j, 4)))
+    b = quat.normalize(rng.normal(size=(c, j, 4)))
+    b[0] = -a[0]  # the same rotations, opposite signs
+    b[1] = quat.normalize(-a[1] + 1e-6 * rng.normal(size=(j, 4)))
+    ta, tb = rng.normal(size=(c, j, 3)), rng.normal(size=(c, j, 3))
+    w = rng.uniform(0.0, 1.0, c)
+    w[2], w[3] = 0.0, 1.0
+    rows = np.arange(c - 5)
+    rot, trans = a.copy(), ta.copy()
+    rot[2] = np.nan  # weight 0: A may be unset
+    blend_poses(rot, trans, b, tb, rows, w[rows])
+    want = quat.slerp(b[rows], a[rows], np.broadcast_to(w[rows, None], (len(rows), j)))
+    want[2] = b[2]
+    np.testing.assert_allclose(rot[rows], want, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(trans[rows], w[rows, None, None] * ta[rows] + (1.0 - w[rows, None, None]) * tb[rows], rtol=0, atol=1e-14)
+    np.testing.assert_array_equal(rot[c - 5 :], a[c - 5 :])
+
+
+def test_the_compiled_hold_phases_are_hold_modes():
+    """hold_rows (the graph's compiled hold lookup) against planting.hold_modes, for a cycle and a one-shot verb,
+    at generic times in other cycles and outside a one-shot motion, written to the feet's columns."""
+    rng = np.random.default_rng(6)
+    c = 300
+    opens = np.array([0.1, 0.6])
+    spans = np.sort(rng.uniform(0.0, 0.9, (c, 2, 3)), axis=-1)
+    times = opens[:, None] + spans
+    cols = np.array([1, 0])
+    for cyclic in (True, False):
+        g = rng.uniform(-1.5, 2.5, c)
+        held, roll = np.zeros((c, 3), dtype=bool), np.full((c, 3), -1.0)
+        rows = np.arange(0, c, 2)
+        hold_rows(g, rows, opens, times, cols, cyclic, held, roll)
+        t = g[rows] - np.floor(g[rows]) if cyclic else np.clip(g[rows], 0.0, 1.0)
+        inside, turn = hold_modes(cyclic, t[:, None], opens, times[rows])
+        np.testing.assert_array_equal(held[rows][:, cols], inside)
+        np.testing.assert_allclose(roll[rows][:, cols], turn, rtol=0, atol=1e-15)
+        assert not held[1::2].any() and np.all(roll[1::2] == -1.0) and np.all(roll[rows, 2] == -1.0)
+
+
+def test_root_velocities_undo_the_root_step():
+    """The graph's root velocities (compiled) of a step taken by advance_root are the velocities it was taken at."""
+    rng = np.random.default_rng(9)
+    root = rng.normal(0.0, [10.0, 10.0, 20.0], (200, 3))
+    vel = rng.normal(0.0, [1.0, 3.0, 2.0], (200, 3))
+    np.testing.assert_allclose(_velocity(root, advance_root(root, vel, 1 / 30), 1 / 30), vel, rtol=0, atol=1e-9)

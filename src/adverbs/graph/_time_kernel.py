@@ -59,3 +59,27 @@ def _generic(clock, keytimes, generic, n):  # pragma: no cover - compiled
     m = min(max(m, 0), n - 2)
     k0, k1 = keytimes[m], keytimes[m + 1]
     return (generic[m] + (generic[m + 1] - generic[m]) * (c - k0) / (k1 - k0)) + lap
+
+
+@njit(cache=True)
+def hold_rows(g, rows, opens, times, cols, cyclic, held, roll):  # pragma: no cover - compiled
+    """For the creatures ``rows (n,)`` of one verb at generic times ``g (C,)``: whether each of its holds is open and
+    how far its foot has rolled off, written to columns ``cols (L,)`` of ``held (C, F)`` and ``roll (C, F)``.
+
+    :func:`adverbs.verb.planting.hold_modes` row by row (``opens (L,)``, ``times (C, L, 3)``), on the cycle ``g``
+    falls in (cyclic) or clipped to the motion.
+    """
+    for i in range(rows.shape[0]):
+        c = rows[i]
+        t = g[c] - math.floor(g[c]) if cyclic else min(max(g[c], 0.0), 1.0)
+        for k in range(opens.shape[0]):
+            heel, close = times[c, k, 1] - opens[k], times[c, k, 2] - opens[k]
+            if cyclic:
+                into = (t - opens[k]) % 1.0
+                inside = into < close
+            else:
+                into = t - opens[k]
+                inside = into >= 0.0 and (into < close or opens[k] + close >= 1.0 - 1e-9)
+            x = min(max((into - heel) / max(close - heel, 1e-12), 0.0), 1.0)
+            held[c, cols[k]] = inside
+            roll[c, cols[k]] = x * x * (3.0 - 2.0 * x)

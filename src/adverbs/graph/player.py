@@ -53,9 +53,9 @@ from ..verb._sampling_kernel import GENERIC, VELOCITIES
 from ..kinematics.floor import Floor
 from ..motion._pose_kernel import blend_poses, root_velocities
 from ..motion.encoding import advance_root
-from ..verb.planting import BALL, FREE, FootPlanter, effector_joints, hold_modes
+from ..verb.planting import BALL, FREE, FootPlanter, effector_joints
 from ..verb.sampling import SamplingState, run_kernel
-from ._time_kernel import clock_rows, generic_rows
+from ._time_kernel import clock_rows, generic_rows, hold_rows
 from .structure import CommandRefused, Graph
 
 INERTIAL_HALFLIFE = 0.2  # of a transition's duration: the half-life of an inertial offset's decay
@@ -505,12 +505,13 @@ def _sample(state: GraphState, g_a: np.ndarray, g_b: np.ndarray) -> _Base:
     c_all = np.arange(state.creatures)
     moving = c_all[state.active >= 0]
     inertial = (state.active >= 0) & state.inertial
-    rate_a, rate_b = np.ones(state.creatures), np.ones(state.creatures)
+    rate_a, rate_b, alpha = np.ones(state.creatures), np.ones(state.creatures), np.ones(state.creatures)
+    b = {}
     if len(moving):
         rate_a[moving], rate_b[moving] = _rates(state, moving)
-    alpha = np.where(state.active < 0, 1.0, np.where(inertial, 0.0, blend_weight(state.beta)))
+        alpha[moving] = np.where(inertial[moving], 0.0, blend_weight(state.beta[moving]))
+        b = _dofs(state, state.into, g_b, 1, moving)
     a = _dofs(state, state.verb, g_a, 0, c_all[~inertial])
-    b = _dofs(state, state.into, g_b, 1, moving)
     vel = np.zeros((state.creatures, 3))
     for sel, d in a.values():
         vel[sel] += (alpha[sel] * rate_a[sel])[:, None] * d[:, :3]
@@ -719,14 +720,9 @@ def hold_phases(state: GraphState) -> tuple[np.ndarray, np.ndarray]:
         r = np.zeros((c, len(graph.feet)))
         for v, which in _by_verb(verbs, rows):
             verb = graph.verbs[v]
-            if not verb.holds:
-                continue
-            sel = rows[which]
-            opens, cols = graph.hold_layout[v]
-            gg = g[sel] - np.floor(g[sel]) if verb.cyclic else np.clip(g[sel], 0.0, 1.0)
-            inside, turn = hold_modes(verb.cyclic, gg[:, None], opens, _hold_times(state, v, slot)[sel])
-            h[np.ix_(sel, cols)] = inside
-            r[np.ix_(sel, cols)] = turn
+            if verb.holds:
+                opens, cols = graph.hold_layout[v]
+                hold_rows(g, rows[which], opens, _hold_times(state, v, slot), cols, verb.cyclic, h, r)
         return h, r
 
     ha, ra = phases(state.verb, state.g, 0, c_all[~inertial])
