@@ -90,7 +90,7 @@ def _rows(kernel, x: np.ndarray, keytimes: np.ndarray, generic: np.ndarray) -> n
     grid = np.ascontiguousarray(x.reshape(len(x), -1))
     out = np.empty(grid.shape)
     kernel(grid, np.ascontiguousarray(keytimes, dtype=float), np.ascontiguousarray(generic, dtype=float), out)
-    return out.reshape(x.shape)
+    return out if x.ndim == 2 else out.reshape(x.shape)
 
 
 def duration(
@@ -155,6 +155,7 @@ class GraphState:
     held_before: np.ndarray | None = None
     moving: np.ndarray | None = None
     fresh: set | None = None
+    regions_seen: dict | None = None
     latencies: list[tuple[int, str, float]] = field(default_factory=list)
     caches: dict = field(default_factory=dict)
 
@@ -462,9 +463,20 @@ def _place(state: GraphState, rows: np.ndarray) -> None:
 
 
 def _region_clocks(state: GraphState, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Clock times ``(n, 2)`` of the start and end of A's region and of B's in the transitions of ``rows``."""
+    """Clock times ``(n, 2)`` of the start and end of A's region and of B's in the transitions of ``rows``.
+
+    Within a step the keytimes hold still, so the same creatures in the same transitions and regions give the same
+    clocks: they are kept for the step (a step asks for them twice: to place A and B, and for their rates)."""
     regions = state.regions[rows]
-    return _clock(state, state.verb, regions[:, :2], 0, rows), _clock(state, state.into, regions[:, 2:], 1, rows)
+    key = None
+    if state.regions_seen is not None:
+        key = (rows.tobytes(), regions.tobytes(), state.verb[rows].tobytes(), state.into[rows].tobytes())
+        if key in state.regions_seen:
+            return state.regions_seen[key]
+    out = _clock(state, state.verb, regions[:, :2], 0, rows), _clock(state, state.into, regions[:, 2:], 1, rows)
+    if key is not None:
+        state.regions_seen[key] = out
+    return out
 
 
 def _rates(state: GraphState, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -576,10 +588,11 @@ def step(state: GraphState, dt: float) -> Frame:
     if not (math.isfinite(dt) and dt > 0):
         raise AdverbsError(f"dt must be a positive number of seconds, got {dt}")
     state.fresh = set()  # the sampling caches brought up to date once in this step (see _sampling)
+    state.regions_seen = {}  # and the transitions' region clocks, once per step (see _region_clocks)
     try:
         return _step(state, dt)
     finally:
-        state.fresh = None
+        state.fresh = state.regions_seen = None
 
 
 def _step(state: GraphState, dt: float) -> Frame:
