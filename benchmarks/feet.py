@@ -78,19 +78,22 @@ def main() -> None:
         trans_f = np.stack([c.translations[:30] for c, _ in clips], axis=1)
         gen = np.stack([frame_generic(verb, k, np.arange(30) / verb.fps) for _, k in clips], axis=1)
 
-        def online(rot_f=rot_f, trans_f=trans_f, gen=gen, pts=pts, crowd=crowd):
-            planter = FootPlanter(verb, crowd, slope, verb.weights(pts))
-            for f in range(len(gen)):
-                planter.step(rot_f[f], trans_f[f], gen[f], 1.0 / verb.fps)
+        for compiled in (True, False):
 
-        s = median_seconds(online, 3)
-        rows.append(
-            (
-                f"FootPlanter.step, {crowd:,} creature{'s' if crowd > 1 else ''} on a slope, one frame at a time "
-                "(state, FK, targets, IK; per creature-frame)",
-                f"{s * 1e6 / (crowd * len(gen)):.1f} µs",
+            def online(rot_f=rot_f, trans_f=trans_f, gen=gen, pts=pts, crowd=crowd, compiled=compiled):
+                planter = FootPlanter(verb, crowd, slope, verb.weights(pts), compiled=compiled)
+                for f in range(len(gen)):
+                    planter.step(rot_f[f], trans_f[f], gen[f], 1.0 / verb.fps)
+
+            s = median_seconds(online, 3)
+            rows.append(
+                (
+                    f"FootPlanter.step{'' if compiled else '_reference (NumPy)'}, {crowd:,} "
+                    f"creature{'s' if crowd > 1 else ''} on a slope, one frame at a time "
+                    "(state, FK, targets, IK; per creature-frame)",
+                    f"{s * 1e6 / (crowd * len(gen)):.1f} µs",
+                )
             )
-        )
     r, t, x = rot[:200], trans[:200], targets[:200]
     s = median_seconds(lambda: ik.solve_reference(chains, r, t, x), 5)
     rows.append(("NumPy reference solver, 200 creatures (per creature-frame)", f"{s * 1e6 / 200:.1f} µs"))

@@ -49,7 +49,7 @@ from ..errors import AdverbsError
 from ..interp import timewarp
 from ..kinematics import ik, quat
 from ..kinematics.fk import forward_kinematics
-from ..kinematics.floor import FlatFloor, Floor, tilt
+from ..kinematics.floor import FlatFloor, Floor, HeightMapFloor, SlopeFloor, tilt
 from ..motion.clip import Clip
 from ..motion.contacts import runs
 from .tables import Verb
@@ -98,9 +98,21 @@ class FootPlanter:
     release, the verb's contact level (``hover``) and the verb's effector position in the previous frame
     (for its velocity); per creature, the root drop. ``weights (C, E)`` set the hold times (the
     examples' own, blended at each creature's adverb point); without them, their mean.
+
+    :meth:`targets`, :meth:`drop_for` and :meth:`step` run a compiled loop (:mod:`._planting_kernel`) on a
+    flat floor, a slope or a height map; their ``*_reference`` methods are the readable NumPy versions, which
+    any other floor (a :class:`~adverbs.kinematics.floor.FunctionFloor`) and ``compiled=False`` use. The two
+    agree to rounding (``tests/test_planting_kernel.py``).
     """
 
-    def __init__(self, verb: Verb, creatures: int = 1, floor: Floor | None = None, weights: np.ndarray | None = None):
+    def __init__(
+        self,
+        verb: Verb,
+        creatures: int = 1,
+        floor: Floor | None = None,
+        weights: np.ndarray | None = None,
+        compiled: bool = True,
+    ):
         if not verb.constraints:
             raise AdverbsError(f"verb {verb.name!r} has no constraints: nothing to plant")
         self.verb = verb
@@ -135,6 +147,8 @@ class FootPlanter:
         self.hover = np.zeros((c, n))  # the verb's contact level, lowering the free foot
         self.ground = np.zeros((c, n))  # its lowest point over the current hold: the next hover
         self.prev_free = np.zeros((c, n, 3))
+        kernel_floor = _compiled_floor(self.floor) if compiled else None
+        self._compiled = None if kernel_floor is None else _Compiled(self, kernel_floor)
 
     # ----- the state machine ------------------------------------------------------------------
     def set_weights(self, weights: np.ndarray) -> None:
@@ -148,6 +162,19 @@ class FootPlanter:
         return tilt(self.floor.normal(xz))
 
     def targets(
+        self,
+        free_pos: np.ndarray,
+        free_rot: np.ndarray,
+        generic: np.ndarray | None,
+        dt: float | np.ndarray,
+        phases: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`targets_reference`, compiled where the floor allows."""
+        if self._compiled is None:
+            return self.targets_reference(free_pos, free_rot, generic, dt, phases)
+        return self._compiled.targets(free_pos, free_rot, generic, dt, phases)
+
+    def targets_reference(
         self,
         free_pos: np.ndarray,
         free_rot: np.ndarray,
@@ -315,6 +342,19 @@ class FootPlanter:
         dt: float,
         phases: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> tuple[np.ndarray, np.ndarray, ik.IKResult]:
+        """:meth:`step_reference`, compiled where the floor allows: one call for FK, the state machine and IK."""
+        if self._compiled is None:
+            return self.step_reference(rotations, translations, generic, dt, phases)
+        return self._compiled.step(rotations, translations, generic, dt, phases)
+
+    def step_reference(
+        self,
+        rotations: np.ndarray,
+        translations: np.ndarray,
+        generic: np.ndarray | None,
+        dt: float,
+        phases: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> tuple[np.ndarray, np.ndarray, ik.IKResult]:
         """Plant the feet of one frame of ``C`` creatures: local ``rotations (C, J, 4)``, ``translations (C, J, 3)``
         of the verb's motion, their generic times ``(C,)`` (or ``phases``, see :meth:`targets`) and the seconds
         since the previous frame.
@@ -325,14 +365,22 @@ class FootPlanter:
         translations = np.asarray(translations, dtype=float)
         gpos, grot = forward_kinematics(self.verb.skeleton.parents, rotations, translations)
         free_pos, free_rot = gpos[:, self.tips], quat.to_matrix(grot[:, self.chains.end])
-        targets, wanted = self.targets(free_pos, free_rot, generic, dt, phases)
+        targets, wanted = self.targets_reference(free_pos, free_rot, generic, dt, phases)
         rise = _rise(self.verb, self.floor, gpos[:, self.verb.encoding.body_root], targets)
-        drop = self.drop_for(gpos[:, self.chains.upper], rise, targets, wanted, dt)
+        drop = self.drop_for_reference(gpos[:, self.chains.upper], rise, targets, wanted, dt)
         risen = _ride_floor(self.verb, self.chains, translations, grot, rise)
         result = ik.solve(self.chains, rotations, risen, targets, self._tilts(wanted, free_rot), min_drop=drop)
         return result.rotations, result.translations, result
 
     def drop_for(
+        self, hips: np.ndarray, rise: np.ndarray, targets: np.ndarray, wanted: np.ndarray, dt: float | np.ndarray
+    ) -> np.ndarray:
+        """:meth:`drop_for_reference`, compiled where the floor allows."""
+        if self._compiled is None:
+            return self.drop_for_reference(hips, rise, targets, wanted, dt)
+        return self._compiled.drop_for(hips, rise, targets, wanted, dt)
+
+    def drop_for_reference(
         self, hips: np.ndarray, rise: np.ndarray, targets: np.ndarray, wanted: np.ndarray, dt: float | np.ndarray
     ) -> np.ndarray:
         """How far to lower each creature's root this frame, ``(C,)``: what its legs need to reach their targets
@@ -354,6 +402,134 @@ class FootPlanter:
     def _tilts(wanted: np.ndarray, free_rot: np.ndarray) -> np.ndarray:
         """What the IK premultiplies each foot's orientation by to make it ``wanted``: ``wanted · free⁻¹``."""
         return wanted @ np.swapaxes(free_rot, -1, -2)
+
+
+class _Compiled:
+    """A :class:`FootPlanter`'s compiled path: its constants laid out once for :mod:`._planting_kernel`, and
+    each frame's inputs checked and passed in with its state arrays (updated in place)."""
+
+    def __init__(self, planter: FootPlanter, floor: tuple):
+        k = _kernel()
+        verb, chains, c, n = planter.verb, planter.chains, planter.creatures, len(planter.tips)
+        self.planter = planter
+        self.kernel = k
+        self.floor = floor  # _compiled_floor(planter.floor)
+        self.constants = k.constants(
+            SWING_HALFLIFE, _LN2, _HALFLIVES, SETTLE_HALFLIFE, SWING_CLEARANCE, STILL_DOWN, LIFTS_OFF, TOE_LANDS,
+            DROP_HALFLIFE,
+        )  # fmt: skip
+        tip = np.ascontiguousarray(chains.tip_offset, dtype=float)
+        self.legs = (planter.heights, planter.opens, planter.heel_heights, tip)
+        reach = np.ascontiguousarray(chains.reach)
+        self.max_drop = ik.MAX_DROP * float(reach.min())
+        joints = (np.asarray(a, dtype=np.int64) for a in (chains.above, chains.upper, chains.middle, chains.end))
+        axes = (np.ascontiguousarray(a, dtype=float) for a in (chains.hinge, chains.upper_offset, chains.end_offset))
+        self.chain = (*joints, *axes, reach)
+        self.ik_params = (float(chains.min_flex), ik.ITERATIONS, ik.DAMPING**2, ik.MAX_STEP, self.max_drop)
+        self.parents = np.asarray(verb.skeleton.parents, dtype=np.int64)
+        self.tips = planter.tips.astype(np.int64)
+        self.root = int(verb.encoding.body_root)
+        self.dt = np.empty(c)
+        self.no_generic = np.zeros(c)  # stand-ins for the inputs not given
+        self.no_phases = (np.zeros((c, n), dtype=bool), np.zeros((c, n)))
+        self.scratch: tuple | None = None  # step's arrays that are not returned
+
+    def _state(self) -> tuple:
+        """The planter's state arrays, in the order ``_planting_kernel`` takes them."""
+        p = self.planter
+        return (
+            p.mode, p.turn, p.target, p.held_rot, p.offset, p.offset_vel, p.since, p.spent, p.rising, p.rel_vec,
+            p.rot_since, p.settle, p.hover, p.ground, p.prev_free, p.drop,
+        )  # fmt: skip
+
+    def _frame(self, generic, dt, phases) -> tuple:
+        """``generic, inside, turn, use_phases`` as the kernel takes them; ``dt`` into ``self.dt``."""
+        self.dt[:] = dt
+        shape = self.planter.mode.shape
+        if phases is None:
+            generic = np.asarray(generic, dtype=float)
+            if generic.shape != shape[:1]:
+                generic = np.ascontiguousarray(np.broadcast_to(generic, shape[:1]))
+            return generic, *self.no_phases, False
+        inside, turn = np.asarray(phases[0], dtype=bool), np.asarray(phases[1], dtype=float)
+        if inside.shape != shape or turn.shape != shape:
+            inside, turn = (np.ascontiguousarray(np.broadcast_to(x, shape)) for x in (inside, turn))
+        return self.no_generic, inside, turn, True
+
+    def _times(self) -> np.ndarray:
+        """The holds' times ``(C, L, 3)`` (``set_weights`` and ``plant_feet_many`` set them)."""
+        return np.ascontiguousarray(self.planter.times, dtype=float)
+
+    def targets(self, free_pos, free_rot, generic, dt, phases) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`FootPlanter.targets_reference` by ``_planting_kernel.advance``."""
+        p = self.planter
+        free_pos = np.ascontiguousarray(free_pos, dtype=float)
+        free_rot = np.ascontiguousarray(free_rot, dtype=float)
+        shown, wanted = np.empty(free_pos.shape), np.empty(free_rot.shape)
+        self.kernel.advance(
+            free_pos, free_rot, *self._frame(generic, dt, phases), self.dt, not p.started, self._times(),
+            p.verb.cyclic, p.verb.floor, self.legs, self.constants, self.floor, self._state(), shown, wanted,
+        )  # fmt: skip
+        p.started = True
+        return shown, wanted
+
+    def drop_for(self, hips, rise, targets, wanted, dt) -> np.ndarray:
+        """:meth:`FootPlanter.drop_for_reference` by ``_planting_kernel.drop_for``."""
+        self.dt[:] = dt
+        p = self.planter
+        hips, rise, targets, wanted = (np.ascontiguousarray(a, dtype=float) for a in (hips, rise, targets, wanted))
+        self.kernel.drop_for(hips, rise, targets, wanted, self.dt, self.legs[3], self.chain[-1], self.max_drop,
+                             self.constants, p.drop)  # fmt: skip
+        return p.drop.copy()
+
+    def step(self, rotations, translations, generic, dt, phases) -> tuple[np.ndarray, np.ndarray, ik.IKResult]:
+        """:meth:`FootPlanter.step_reference` by ``_planting_kernel.step``: FK, the state machine and IK in one call."""
+        p = self.planter
+        rot = np.array(rotations, dtype=float, order="C")  # planted in place
+        trans = np.array(translations, dtype=float, order="C")
+        c = rot.shape[0]
+        if self.scratch is None or self.scratch[0].shape != trans.shape:  # FK, targets, wanted orientations
+            n = len(self.tips)
+            self.scratch = (np.empty(trans.shape), np.empty(rot.shape), np.empty((c, n, 3)), np.empty((c, n, 3, 3)))
+        drop, residual = np.empty(c), np.empty((c, len(self.tips)))
+        finite = self.kernel.step(
+            self.parents, rot, trans, *self._frame(generic, dt, phases), self.dt, not p.started, self._times(),
+            p.verb.cyclic, p.verb.floor, self.tips, self.root, self.legs, self.constants, self.floor, self._state(),
+            self.chain, self.ik_params, (*self.scratch, drop, residual),
+        )  # fmt: skip
+        p.started = True
+        if not finite:
+            raise AdverbsError("IK targets must be finite (got NaN or infinity)")
+        return rot, trans, ik.IKResult(rot, trans, drop, residual > ik.MISS, residual)
+
+
+def _compiled_floor(floor: Floor) -> tuple | None:
+    """``floor`` as ``_planting_kernel`` takes it (``(kind, params, gx, gz, grid)``), or ``None`` if it cannot
+    (a :class:`~adverbs.kinematics.floor.FunctionFloor`, or a subclass with heights of its own)."""
+    none, no_grid = np.zeros(0), np.zeros((0, 0))
+    if type(floor) is FlatFloor:
+        return 0, np.array([floor.level, 0.0, 0.0, 0.0, floor.step, 1.0]), none, none, no_grid
+    if type(floor) is SlopeFloor:
+        d = floor.direction
+        return 0, np.array([floor.level, floor.gradient, d[0], d[1], floor.step, 0.0]), none, none, no_grid
+    if type(floor) is HeightMapFloor:
+        gz, gx = (np.ascontiguousarray(a, dtype=float) for a in floor._grid.grid)
+        params = np.array([0.0, 0.0, 0.0, 0.0, floor.step, 0.0])
+        return 1, params, gx, gz, np.ascontiguousarray(floor._grid.values, dtype=float)
+    return None
+
+
+_KERNEL = None
+
+
+def _kernel():
+    """Compile the planter's loop on first use (cached on disk by numba), so importing adverbs stays quick."""
+    global _KERNEL
+    if _KERNEL is None:
+        from . import _planting_kernel
+
+        _KERNEL = _planting_kernel
+    return _KERNEL
 
 
 def hold_modes(cyclic: bool, g: np.ndarray, opens: np.ndarray, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
