@@ -8,11 +8,11 @@ contact level when planting starts (the lowest of its feet that are down).
 
 The arguments come in tuples (what ``FootPlanter`` keeps):
 
-* ``floor = (kind, params, gx, gz, grid)``: a plane (:data:`PLANE`: ``FlatFloor``, ``SlopeFloor``; ``params``
-  ``(level, gradient, direction x, direction z, step, flat)``) or a bilinear height map (:data:`GRID`:
-  ``HeightMapFloor``, its grid lines ``gx``, ``gz`` and ``grid (len(gz), len(gx))``; ``params``
-  ``(0, 0, 0, 0, step, 0)``). Normals are central differences of the height ``step`` apart (``Floor.normal``);
-  a flat floor tilts nothing.
+* ``floor = (kind, params, tilt, gx, gz, grid)``: a plane (:data:`PLANE`: ``FlatFloor``, ``SlopeFloor``;
+  ``params`` ``(level, gradient, direction x, direction z, step)``, and its ``tilt (3, 3)``, the same
+  everywhere: the identity on a flat floor) or a bilinear height map (:data:`GRID`: ``HeightMapFloor``, its grid
+  lines ``gx``, ``gz`` and ``grid (len(gz), len(gx))``; ``params`` ``(0, 0, 0, 0, step)``; its tilt is taken
+  from normals by central differences ``step`` apart, as ``Floor.normal`` takes them).
 * ``legs = (heights, opens, heel_heights, tip_offset)``, per effector ``(L,)`` (``(L, 3)``).
 * ``state = (mode, turn, target, held_rot, offset, offset_vel, since, spent, rising, rel_vec, rot_since,
   settle, hover, ground, prev_free, drop)``: ``FootPlanter``'s state arrays, updated in place.
@@ -52,11 +52,11 @@ def _grid_index(axis, v):
     return i, (v - axis[i]) / (axis[i + 1] - axis[i])
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _height(floor, x, z):
     """``Floor.height`` at ``(x, z)``: a plane's ``level + gradient · (xz · direction)`` (``SlopeFloor``; a
     ``FlatFloor`` has no gradient), or a height map's bilinear sample clipped to its edges (``HeightMapFloor``)."""
-    kind, params, gx, gz, grid = floor
+    kind, params, _, gx, gz, grid = floor
     if kind == PLANE:
         return params[0] + params[1] * (x * params[2] + z * params[3])
     i, u = _grid_index(gz, min(max(z, gz[0]), gz[len(gz) - 1]))
@@ -68,13 +68,12 @@ def _height(floor, x, z):
 @njit(cache=True)
 def _tilt(floor, x, z, out):
     """``FootPlanter._tilt`` at ``(x, z)`` into ``out (3, 3)``: ``floor.tilt(floor.normal(xz))``, the shortest turn
-    of the vertical onto the normal taken by central differences; the identity on a flat floor."""
-    params = floor[1]
-    if params[5] != 0.0:
-        out[:] = 0.0
-        out[0, 0] = out[1, 1] = out[2, 2] = 1.0
+    of the vertical onto the normal taken by central differences (a plane's is given: its difference quotients
+    are its gradient, whatever the point, to rounding)."""
+    if floor[0] == PLANE:
+        out[:] = floor[2]
         return
-    h = params[4]
+    h = floor[1][4]
     sx = (_height(floor, x + h, z) - _height(floor, x - h, z)) / (2 * h)
     sz = (_height(floor, x, z + h) - _height(floor, x, z - h)) / (2 * h)
     norm = math.sqrt(sx * sx + 1.0 + sz * sz)
@@ -195,7 +194,7 @@ def _hold_mode(cyclic, g, open_, times):
     return inside, _smoothstep((into - heel) / max(close - heel, 1e-12))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _released_rot(free_rot, rel_vec, rot_since, k_, out, scratch):
     """``FootPlanter._released_rot`` of one foot: its orientation turned by what is left of its release's turn."""
     k = _spring(1.0, 0.0, rot_since, k_[_SWING], k_[_LN2])
@@ -244,7 +243,7 @@ def _shown(c, i, base, free_rot, turn, follows, height, tip, k_, floor, state, s
             shown[a] += wanted[a, 0] * tip[0] + wanted[a, 1] * tip[1] + wanted[a, 2] * tip[2]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _land(c, i, point, height, floor, state):
     """``FootPlanter._land`` of one effector: hold ``point`` ``height`` above the floor (NaN: where it is)."""
     target, offset, offset_vel, since, settle = state[2], state[4], state[5], state[6], state[11]

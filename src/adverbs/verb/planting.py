@@ -504,18 +504,18 @@ class _Compiled:
 
 
 def _compiled_floor(floor: Floor) -> tuple | None:
-    """``floor`` as ``_planting_kernel`` takes it (``(kind, params, gx, gz, grid)``), or ``None`` if it cannot
+    """``floor`` as ``_planting_kernel`` takes it (``(kind, params, tilt, gx, gz, grid)``), or ``None`` if it cannot
     (a :class:`~adverbs.kinematics.floor.FunctionFloor`, or a subclass with heights of its own)."""
     none, no_grid = np.zeros(0), np.zeros((0, 0))
-    if type(floor) is FlatFloor:
-        return 0, np.array([floor.level, 0.0, 0.0, 0.0, floor.step, 1.0]), none, none, no_grid
-    if type(floor) is SlopeFloor:
-        d = floor.direction
-        return 0, np.array([floor.level, floor.gradient, d[0], d[1], floor.step, 0.0]), none, none, no_grid
+    if type(floor) is FlatFloor or type(floor) is SlopeFloor:  # a plane: one tilt everywhere
+        gradient, d = (0.0, (0.0, 0.0)) if floor.is_flat else (floor.gradient, floor.direction)
+        params = np.array([floor.level, gradient, d[0], d[1], floor.step])
+        plane_tilt = np.eye(3) if floor.is_flat else tilt(floor.normal(np.zeros(2)))
+        return 0, params, plane_tilt, none, none, no_grid
     if type(floor) is HeightMapFloor:
         gz, gx = (np.ascontiguousarray(a, dtype=float) for a in floor._grid.grid)
-        params = np.array([0.0, 0.0, 0.0, 0.0, floor.step, 0.0])
-        return 1, params, gx, gz, np.ascontiguousarray(floor._grid.values, dtype=float)
+        params = np.array([0.0, 0.0, 0.0, 0.0, floor.step])
+        return 1, params, np.eye(3), gx, gz, np.ascontiguousarray(floor._grid.values, dtype=float)
     return None
 
 
