@@ -83,3 +83,13 @@ def hold_rows(g, rows, opens, times, cols, cyclic, held, roll):  # pragma: no co
             x = min(max((into - heel) / max(close - heel, 1e-12), 0.0), 1.0)
             held[c, cols[k]] = inside
             roll[c, cols[k]] = x * x * (3.0 - 2.0 * x)
+
+
+@njit(cache=True)
+def later_rows(g, seconds, keytimes, generic, out):  # pragma: no cover - compiled
+    """``out[i, j]``: the generic time ``seconds`` of clock time after generic time ``g[i, j]`` under ``keytimes[i]``
+    (:func:`clock_rows`, the seconds added, then :func:`generic_rows`, in one pass)."""
+    n = generic.shape[0]
+    for i in range(g.shape[0]):
+        for j in range(g.shape[1]):
+            out[i, j] = _generic(_clock(g[i, j], keytimes[i], generic, n) + seconds, keytimes[i], generic, n)

@@ -55,7 +55,7 @@ from ..motion._pose_kernel import blend_poses, root_velocities
 from ..motion.encoding import advance_root
 from ..verb.planting import BALL, FREE, FootPlanter, effector_joints
 from ..verb.sampling import SamplingState, run_kernel
-from ._time_kernel import clock_rows, generic_rows, hold_rows
+from ._time_kernel import clock_rows, generic_rows, hold_rows, later_rows
 from .structure import CommandRefused, Graph
 
 INERTIAL_HALFLIFE = 0.2  # of a transition's duration: the half-life of an inertial offset's decay
@@ -85,11 +85,11 @@ def generic_of(clock: np.ndarray, keytimes: np.ndarray, generic: np.ndarray) -> 
     return _rows(generic_rows, clock, keytimes, generic)
 
 
-def _rows(kernel, x: np.ndarray, keytimes: np.ndarray, generic: np.ndarray) -> np.ndarray:
+def _rows(kernel, x: np.ndarray, keytimes: np.ndarray, generic: np.ndarray, *extra) -> np.ndarray:
     x = np.asarray(x, dtype=float)
     grid = np.ascontiguousarray(x.reshape(len(x), -1))
     out = np.empty(grid.shape)
-    kernel(grid, np.ascontiguousarray(keytimes, dtype=float), np.ascontiguousarray(generic, dtype=float), out)
+    kernel(grid, *extra, np.ascontiguousarray(keytimes, dtype=float), np.ascontiguousarray(generic, dtype=float), out)
     return out if x.ndim == 2 else out.reshape(x.shape)
 
 
@@ -349,11 +349,10 @@ def _by_verb(verbs: np.ndarray, rows: np.ndarray) -> list[tuple[int, np.ndarray 
     return [(int(v), vs == v) for v in np.unique(vs)]
 
 
-def _warp(state: GraphState, verbs: np.ndarray, x: np.ndarray, slot: int, rows: np.ndarray, to_clock: bool) -> np.ndarray:
-    """``x (n,)`` or ``(n, k)`` of the creatures ``rows`` in their verbs ``verbs[rows]`` (slot A or B), generic times
-    turned to clock times (``to_clock``) or back, under each creature's keytimes."""
+def _warp(state: GraphState, verbs: np.ndarray, x: np.ndarray, slot: int, rows: np.ndarray, convert) -> np.ndarray:
+    """``x (n,)`` or ``(n, k)`` of the creatures ``rows`` in their verbs ``verbs[rows]`` (slot A or B) converted by
+    ``convert(x, keytimes, generic)`` (generic times to clock times, or back) under each creature's keytimes."""
     out = np.zeros(np.shape(x))
-    convert = clock_of if to_clock else generic_of
     for v, sel in _by_verb(verbs, rows):
         keys = _sampling(state, v, slot).keytimes[rows[sel]]
         out[sel] = convert(x[sel], keys, state.graph.verbs[v].generic_keytimes)
@@ -362,12 +361,17 @@ def _warp(state: GraphState, verbs: np.ndarray, x: np.ndarray, slot: int, rows: 
 
 def _clock(state: GraphState, verbs: np.ndarray, g: np.ndarray, slot: int, rows: np.ndarray) -> np.ndarray:
     """Clock times of generic times ``g (n,)`` or ``(n, k)``; see :func:`_warp`."""
-    return _warp(state, verbs, g, slot, rows, True)
+    return _warp(state, verbs, g, slot, rows, clock_of)
 
 
 def _generic(state: GraphState, verbs: np.ndarray, clock: np.ndarray, slot: int, rows: np.ndarray) -> np.ndarray:
     """Generic times ``(n,)`` of clock times ``clock (n,)``: the inverse of :func:`_clock`."""
-    return _warp(state, verbs, clock, slot, rows, False)
+    return _warp(state, verbs, clock, slot, rows, generic_of)
+
+
+def _later(state: GraphState, verbs: np.ndarray, g: np.ndarray, seconds: float, slot: int, rows: np.ndarray) -> np.ndarray:
+    """Generic times ``(n,)`` ``seconds`` of each creature's clock after ``g (n,)``: ``_generic(_clock(g) + seconds)``."""
+    return _warp(state, verbs, g, slot, rows, lambda x, keys, generic: _rows(later_rows, x, keys, generic, seconds))
 
 
 def _start(state: GraphState, c: int, late: float, inertial: bool = False) -> None:
@@ -424,8 +428,7 @@ def _advance(state: GraphState, dt: float) -> None:
     state.beta[moving] += dt / state.length[moving]
     alone = c_all[state.active < 0]
     if len(alone):
-        clock = _clock(state, state.verb, state.g[alone], 0, alone) + dt
-        g_new = _generic(state, state.verb, clock, 0, alone)
+        g_new = _later(state, state.verb, state.g[alone], dt, 0, alone)
         nxt = np.array([graph.transitions[state.queue[c][0]].source_region[0] for c in alone])
         begins = g_new >= nxt - _LATE
         one_shot = ~graph.cyclic[state.verb[alone]]
@@ -433,9 +436,11 @@ def _advance(state: GraphState, dt: float) -> None:
         for i in np.flatnonzero(begins):
             c = int(alone[i])
             # How much of this frame is left after the region's start (none if it had gone by).
-            at = float(_clock(state, state.verb, np.array([max(nxt[i], state.g[c])]), 0, np.array([c]))[0])
+            row = np.array([c])
+            clock = _clock(state, state.verb, state.g[row], 0, row)[0] + dt
+            at = float(_clock(state, state.verb, np.array([max(nxt[i], state.g[c])]), 0, row)[0])
             state.g[c] = max(nxt[i], min(state.g[c], 1.0))
-            _start(state, c, max(float(clock[i]) - at, 0.0))
+            _start(state, c, max(float(clock) - at, 0.0))
         rest = ~begins
         state.g[alone[rest]] = g_new[rest]
     for c in moving[state.beta[moving] >= 1.0]:  # transitions ending this frame
@@ -445,8 +450,7 @@ def _advance(state: GraphState, dt: float) -> None:
         _finish(state, int(c))
         if over > 0:  # the rest of the frame, B alone
             row = np.array([c])
-            clock = _clock(state, state.verb, state.g[row], 0, row) + over
-            state.g[c] = _generic(state, state.verb, clock, 0, row)[0]
+            state.g[c] = _later(state, state.verb, state.g[row], over, 0, row)[0]
     _place(state, c_all[state.active >= 0])
 
 
@@ -614,8 +618,9 @@ def _step(state: GraphState, dt: float) -> Frame:
     if before is not None:
         state.offset_since[rows] = dt  # the offset was taken a frame ago, at what was shown then
     live = np.flatnonzero(state.offset_since < 12.0 * state.offset_halflife)
-    t, h = state.offset_since[live, None], state.offset_halflife[live, None]
-    vel[live] += _spring(state.offset_root[live], 0.0, t, h)
+    if len(live):
+        t, h = state.offset_since[live, None], state.offset_halflife[live, None]
+        vel[live] += _spring(state.offset_root[live], 0.0, t, h)
     # The root moves at the velocities of the step's start, as a clip's velocity columns say (a frame's velocity is
     # its step to the next): a verb playing alone travels exactly as its synthesized clip does.
     new_root = advance_root(state.root, state.moving, dt)
@@ -806,9 +811,11 @@ def plant(feet: GraphFeet, frame: Frame, dt: float, alone: np.ndarray | None = N
     p = feet.planter
     held = frame.held & ~feet.replanting
     out = p.step(frame.rotations, frame.translations, None, dt, (held, frame.roll))
-    gap = np.linalg.norm((p.prev_free - p.target)[..., [0, 2]], axis=-1)
-    settled = np.linalg.norm(p._offset(), axis=-1) < REPLANTED
-    feet.replanting &= ~((p.mode == FREE) & settled & (p.since[..., 0] > 0))
+    if feet.replanting.any():
+        settled = np.linalg.norm(p._offset(), axis=-1) < REPLANTED
+        feet.replanting &= ~((p.mode == FREE) & settled & (p.since[..., 0] > 0))
     if alone is not None:
+        away = p.prev_free - p.target
+        gap = np.hypot(away[..., 0], away[..., 2])
         feet.replanting |= alone[:, None] & (p.mode == BALL) & (p.turn == 0.0) & (gap > REPLANT)
     return out
