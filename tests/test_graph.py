@@ -539,3 +539,53 @@ def test_root_velocities_undo_the_root_step():
     root = rng.normal(0.0, [10.0, 10.0, 20.0], (200, 3))
     vel = rng.normal(0.0, [1.0, 3.0, 2.0], (200, 3))
     np.testing.assert_allclose(_velocity(root, advance_root(root, vel, 1 / 30), 1 / 30), vel, rtol=0, atol=1e-9)
+
+
+def test_the_compiled_blend_bookkeeping_is_the_numpy_one(bandai):
+    """keep_feet (the body carried by the held feet's slip) and decay_offsets (a decaying pose offset) against the NumPy
+    formulas they replace, on real Bandai poses: feet weights of both kinds and none, offsets of all ages."""
+    from adverbs.graph._blend_kernel import decay_offsets, keep_feet
+    from adverbs.kinematics.fk import forward_kinematics
+
+    graph = bandai
+    body = graph.verbs[0].encoding.body_root
+    rng = np.random.default_rng(10)
+    c, j = 12, graph.skeleton.num_joints
+    rot = quat.normalize(rng.normal(size=(c, j, 4)))
+    trans = np.broadcast_to(graph.verbs[1].encoding.base_translations, (c, j, 3)) + rng.normal(0, 0.05, (c, j, 3))
+    shown_rot = quat.normalize(rot + rng.normal(0, 0.05, (c, j, 4)))
+    shown_trans = trans + rng.normal(0, 0.02, (c, j, 3))
+    tips = graph.feet_array
+    rows = np.array([0, 2, 3, 5, 7, 11])
+    w = rng.uniform(0.0, 1.0, (len(rows), len(tips)))
+    w[1] = 0.0  # no foot held in both frames: untouched
+    w[2, 0] = 0.0
+    root = rng.normal(size=(c, 3))
+    got_root, got_trans = root.copy(), np.array(trans)
+    keep_feet(graph.skeleton.parents, tips, rows, w, rot, got_trans, shown_rot, shown_trans, body, graph.inverse_above_body, got_root)
+    now = forward_kinematics(graph.skeleton.parents, rot[rows], trans[rows])[0][:, tips]
+    was = forward_kinematics(graph.skeleton.parents, shown_rot[rows], shown_trans[rows])[0][:, tips]
+    keep = w.sum(axis=1) > 0
+    slip = np.einsum("cl,clk->ck", w[keep], (was - now)[keep]) / w[keep].sum(axis=1, keepdims=True)
+    slip[:, 1] = 0.0
+    want_root, want_trans = root.copy(), np.array(trans)
+    want_root[rows[keep], 0] += slip[:, 0]
+    want_root[rows[keep], 1] += slip[:, 2]
+    want_trans[rows[keep], body] += quat.rotate(graph.inverse_above_body, slip)
+    np.testing.assert_allclose(got_root, want_root, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(got_trans, want_trans, rtol=0, atol=1e-15)
+    assert np.array_equal(got_root[rows[1]], root[rows[1]])
+
+    off_rot, off_rot_vel = rng.normal(0, 0.3, (c, j, 3)), rng.normal(0, 2.0, (c, j, 3))
+    off_trans, off_trans_vel = rng.normal(0, 0.05, (c, j, 3)), rng.normal(0, 0.5, (c, j, 3))
+    since, halflife = rng.uniform(0.0, 2.0, len(rows)), rng.uniform(0.05, 0.4, len(rows))
+    got_rot, got_trans = rot.copy(), np.array(trans)
+    decay_offsets(rows, since, halflife, off_rot, off_rot_vel, off_trans, off_trans_vel, got_rot, got_trans)
+    y = 2.0 * np.log(2.0) / halflife[:, None, None]
+    t = since[:, None, None]
+    spring = lambda x0, v0: (x0 + (v0 + y * x0) * t) * np.exp(-y * t)  # noqa: E731
+    want_rot, want_trans = rot.copy(), np.array(trans)
+    want_rot[rows] = quat.mul(quat.exp(spring(off_rot[rows], off_rot_vel[rows])), rot[rows])
+    want_trans[rows] += spring(off_trans[rows], off_trans_vel[rows])
+    np.testing.assert_allclose(got_rot, want_rot, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(got_trans, want_trans, rtol=0, atol=1e-15)

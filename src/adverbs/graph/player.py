@@ -48,13 +48,13 @@ import numpy as np
 
 from ..errors import AdverbsError
 from ..kinematics import quat
-from ..kinematics.fk import forward_kinematics
 from ..verb._sampling_kernel import GENERIC, VELOCITIES
 from ..kinematics.floor import Floor
 from ..motion._pose_kernel import blend_poses, root_velocities
 from ..motion.encoding import advance_root
 from ..verb.planting import BALL, FREE, FootPlanter, effector_joints
 from ..verb.sampling import SamplingState, run_kernel
+from ._blend_kernel import decay_offsets, keep_feet
 from ._time_kernel import clock_rows, generic_rows, hold_rows, later_rows
 from .structure import CommandRefused, Graph
 
@@ -642,9 +642,10 @@ def _step(state: GraphState, dt: float) -> Frame:
         state.offset_trans[rows, body, 0] = state.offset_trans[rows, body, 2] = 0.0
         state.offset_trans_vel[rows, body, 0] = state.offset_trans_vel[rows, body, 2] = 0.0
     if len(live):
-        t, h = t[:, :, None], h[:, :, None]
-        rot[live] = quat.mul(quat.exp(_spring(state.offset_rot[live], state.offset_rot_vel[live], t, h)), rot[live])
-        trans[live] += _spring(state.offset_trans[live], state.offset_trans_vel[live], t, h)
+        decay_offsets(
+            live, state.offset_since[live], state.offset_halflife[live], state.offset_rot, state.offset_rot_vel,
+            state.offset_trans, state.offset_trans_vel, rot, trans,
+        )  # fmt: skip
     held, roll = hold_phases(state)
     blended = np.zeros(state.creatures, dtype=bool)
     blended[live] = True
@@ -702,21 +703,13 @@ def _keep_feet(
     if not blending.any():
         return root
     rows = np.flatnonzero(blending)
-    w = (held & state.held_before)[rows] * (1.0 - roll[rows])
-    rows, w = rows[w.sum(axis=1) > 0], w[w.sum(axis=1) > 0]
-    if not len(rows):
-        return root
+    w = np.ascontiguousarray((held & state.held_before)[rows] * (1.0 - roll[rows]))
     graph = state.graph
-    tips = list(graph.feet)
-    now = forward_kinematics(graph.skeleton.parents, rot[rows], trans[rows])[0][:, tips]
-    was = forward_kinematics(graph.skeleton.parents, state.shown[0][rows], state.shown[1][rows])[0][:, tips]
-    slip = np.einsum("cl,clk->ck", w, was - now) / w.sum(axis=1, keepdims=True)
-    slip[:, 1] = 0.0
     root = root.copy()
-    root[rows, 0] += slip[:, 0]
-    root[rows, 1] += slip[:, 2]
-    body = graph.verbs[0].encoding.body_root
-    trans[rows, body] += quat.rotate(graph.inverse_above_body, slip)
+    keep_feet(
+        graph.skeleton.parents, graph.feet_array, rows, w, rot, trans, state.shown[0], state.shown[1],
+        graph.verbs[0].encoding.body_root, graph.inverse_above_body, root,
+    )  # fmt: skip
     return root
 
 

@@ -202,6 +202,11 @@ class Graph:
         return tuple(out)
 
     @cached_property
+    def feet_array(self) -> np.ndarray:
+        """:attr:`feet` as an array ``(L,)``."""
+        return np.array(self.feet, dtype=np.int64)
+
+    @cached_property
     def between_verbs(self) -> np.ndarray:
         """Whether each transition goes from one verb to another ``(T,)`` (not a loop into itself)."""
         return np.array([t.source != t.target for t in self.transitions], dtype=bool)
