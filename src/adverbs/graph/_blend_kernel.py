@@ -16,6 +16,7 @@ from numba import njit
 
 from ..kinematics._fk_kernel import forward
 from ..motion._pose_kernel import _exp, _mul
+from ..verb._planting_scalars import spring
 
 
 @njit(cache=True)
@@ -60,17 +61,17 @@ def decay_offsets(rows, since, halflife, offset_rot, offset_rot_vel, offset_tran
     """For each creature ``rows[i]``: its offset ``since[i]`` seconds on (half-life ``halflife[i]``), each joint's
     rotation offset (a rotation vector) applied before its rotation and its translation offset added."""
     n_j = rot.shape[1]
+    ln2 = math.log(2.0)
     for i in range(rows.shape[0]):
         c = rows[i]
-        t, y = since[i], 2.0 * math.log(2.0) / halflife[i]
-        e = math.exp(-y * t)
+        t, h = since[i], halflife[i]
         for j in range(n_j):
-            rx = (offset_rot[c, j, 0] + (offset_rot_vel[c, j, 0] + y * offset_rot[c, j, 0]) * t) * e
-            ry = (offset_rot[c, j, 1] + (offset_rot_vel[c, j, 1] + y * offset_rot[c, j, 1]) * t) * e
-            rz = (offset_rot[c, j, 2] + (offset_rot_vel[c, j, 2] + y * offset_rot[c, j, 2]) * t) * e
+            rx = spring(offset_rot[c, j, 0], offset_rot_vel[c, j, 0], t, h, ln2)
+            ry = spring(offset_rot[c, j, 1], offset_rot_vel[c, j, 1], t, h, ln2)
+            rz = spring(offset_rot[c, j, 2], offset_rot_vel[c, j, 2], t, h, ln2)
             ex, ey, ez, ew = _exp(rx, ry, rz)
             q = _mul(ex, ey, ez, ew, rot[c, j, 0], rot[c, j, 1], rot[c, j, 2], rot[c, j, 3])
             for a in range(4):
                 rot[c, j, a] = q[a]
             for a in range(3):
-                trans[c, j, a] += (offset_trans[c, j, a] + (offset_trans_vel[c, j, a] + y * offset_trans[c, j, a]) * t) * e
+                trans[c, j, a] += spring(offset_trans[c, j, a], offset_trans_vel[c, j, a], t, h, ln2)

@@ -13,6 +13,8 @@ import math
 
 from numba import njit
 
+from ..verb._planting_scalars import hold_mode
+
 
 @njit(cache=True)
 def clock_rows(g, keytimes, generic, out):  # pragma: no cover - compiled
@@ -73,16 +75,7 @@ def hold_rows(g, rows, opens, times, cols, cyclic, held, roll):  # pragma: no co
         c = rows[i]
         t = g[c] - math.floor(g[c]) if cyclic else min(max(g[c], 0.0), 1.0)
         for k in range(opens.shape[0]):
-            heel, close = times[c, k, 1] - opens[k], times[c, k, 2] - opens[k]
-            if cyclic:
-                into = (t - opens[k]) % 1.0
-                inside = into < close
-            else:
-                into = t - opens[k]
-                inside = into >= 0.0 and (into < close or opens[k] + close >= 1.0 - 1e-9)
-            x = min(max((into - heel) / max(close - heel, 1e-12), 0.0), 1.0)
-            held[c, cols[k]] = inside
-            roll[c, cols[k]] = x * x * (3.0 - 2.0 * x)
+            held[c, cols[k]], roll[c, cols[k]] = hold_mode(cyclic, t, opens[k], times[c, k])
 
 
 @njit(cache=True)

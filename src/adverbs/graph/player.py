@@ -52,7 +52,7 @@ from ..verb._sampling_kernel import GENERIC, VELOCITIES
 from ..kinematics.floor import Floor
 from ..motion._pose_kernel import blend_poses, root_velocities
 from ..motion.encoding import advance_root
-from ..verb.planting import BALL, FREE, FootPlanter, effector_joints
+from ..verb.planting import BALL, FREE, FootPlanter, _spring, effector_joints
 from ..verb.sampling import SamplingState, run_kernel
 from ._blend_kernel import decay_offsets, keep_feet
 from ._time_kernel import clock_rows, generic_rows, hold_rows, later_rows
@@ -61,7 +61,6 @@ from .structure import CommandRefused, Graph
 INERTIAL_HALFLIFE = 0.2  # of a transition's duration: the half-life of an inertial offset's decay
 INTERRUPT_HALFLIFE = 0.2  # seconds: the shortest half-life of the offset an interruption leaves
 MIN_DURATION = 0.1  # seconds: no transition is shorter
-_LN2 = math.log(2.0)
 _LATE = 1e-9  # generic time: a region start this close behind is not yet gone by
 
 
@@ -103,12 +102,6 @@ def duration(
     length_a = clock_of(np.broadcast_to(a[1], len(keys_a)), keys_a, generic_a) - clock_of(np.broadcast_to(a[0], len(keys_a)), keys_a, generic_a)
     length_b = clock_of(np.broadcast_to(b[1], len(keys_b)), keys_b, generic_b) - clock_of(np.broadcast_to(b[0], len(keys_b)), keys_b, generic_b)
     return 0.5 * (length_a + length_b)
-
-
-def _spring(x0: np.ndarray, v0: np.ndarray, t: np.ndarray, halflife: np.ndarray) -> np.ndarray:
-    """A critically damped offset ``x0`` with velocity ``v0``, ``t`` seconds on."""
-    y = 2.0 * _LN2 / halflife
-    return (x0 + (v0 + y * x0) * t) * np.exp(-y * t)
 
 
 @dataclass(eq=False)

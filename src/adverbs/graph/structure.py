@@ -23,8 +23,6 @@ from functools import cached_property
 import numpy as np
 
 from ..errors import AdverbsError
-from ..kinematics import quat
-from ..kinematics.fk import forward_kinematics
 from ..verb.planting import effector_joints
 from ..verb.tables import Verb
 
@@ -222,12 +220,7 @@ class Graph:
     @cached_property
     def inverse_above_body(self) -> np.ndarray:
         """The inverse of the rest rotation of the joint above the body root ``(4,)`` (identity when it has none)."""
-        skel, enc = self.skeleton, self.verbs[0].encoding
-        above = skel.ancestors(enc.body_root)[1:]
-        if not above:
-            return quat.identity()
-        _, rest = forward_kinematics(skel.parents, quat.identity((skel.num_joints,)), enc.base_translations)
-        return quat.inv(rest[above[0]])
+        return self.verbs[0].encoding.above_body[1]
 
     def verb_index(self, name: str | int) -> int:
         """The index of verb ``name``; an unknown one raises :class:`CommandRefused` naming the verbs there are."""

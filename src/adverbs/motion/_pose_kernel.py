@@ -160,7 +160,7 @@ def root_velocities(old, new, dt, out):  # pragma: no cover - compiled
     """The velocities ``(n, 3)`` (sideways, forward, turn) taking roots ``old`` to ``new`` in ``dt``, into ``out``:
     the inverse of :func:`advance_roots`."""
     for i in range(old.shape[0]):
-        vx, _, vz = _rotate_about_y(-0.5 * (old[i, 2] + new[i, 2]), (new[i, 0] - old[i, 0]) / dt, 0.0 / dt, (new[i, 1] - old[i, 1]) / dt)
+        vx, _, vz = _rotate_about_y(-0.5 * (old[i, 2] + new[i, 2]), (new[i, 0] - old[i, 0]) / dt, 0.0, (new[i, 1] - old[i, 1]) / dt)
         out[i, 0] = vx
         out[i, 1] = vz
         out[i, 2] = (new[i, 2] - old[i, 2]) / dt

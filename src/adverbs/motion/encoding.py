@@ -162,7 +162,7 @@ class DofEncoding:
         return np.flatnonzero(_below(self.skeleton, self.body_root))
 
     @cached_property
-    def _above_body(self) -> tuple[bool, np.ndarray, np.ndarray]:
+    def above_body(self) -> tuple[bool, np.ndarray, np.ndarray]:
         """Whether the body root has (fixed) ancestors, the inverse of their global rotation ``(4,)`` and their
         position ``(3,)``: the frame a decoded body root is expressed in."""
         above = self.skeleton.ancestors(self.body_root)[1:]
@@ -288,7 +288,7 @@ class DofEncoding:
         if self.kind != "logquat":
             rot[rows], trans[rows] = self._decode_pose_reference(dofs, roots)
             return
-        has_parent, parent_inv, parent_pos = self._above_body
+        has_parent, parent_inv, parent_pos = self.above_body
         _pose_kernel.decode_logquat(
             np.ascontiguousarray(dofs, dtype=float), np.ascontiguousarray(roots, dtype=float),
             np.ascontiguousarray(rows, dtype=np.int64), self.rotated, self.reference, self.translated,
@@ -314,7 +314,7 @@ class DofEncoding:
 
         # The body root's global transform, expressed below its (fixed) ancestors.
         g_root = quat.mul(quat.about_y(h), rotations[..., body, :])
-        has_parent, inv_parent, parent_pos = self._above_body
+        has_parent, inv_parent, parent_pos = self.above_body
         if has_parent:
             rotations[..., body, :] = quat.mul(inv_parent, g_root)
             translations[..., body, :] = quat.rotate(inv_parent, p - parent_pos)

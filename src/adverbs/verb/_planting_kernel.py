@@ -28,6 +28,10 @@ from numba import njit
 
 from ..kinematics._fk_kernel import forward
 from ..kinematics._ik_kernel import _mat_to_quat, _mm, _mv, _quat_to_mat, _rotation, solve_batch
+from ..motion import _pose_kernel
+from ._planting_scalars import hold_mode as _hold_mode
+from ._planting_scalars import smoothstep as _smoothstep
+from ._planting_scalars import spring as _spring
 
 PLANE, GRID = 0, 1
 FREE, HEEL, BALL = 0, 1, 2  # planting.FREE, HEEL, BALL
@@ -105,32 +109,19 @@ def _mmt(a, b, out):
 @njit(cache=True)
 def _mul(a, b, out):
     """``quat.mul``: the Hamilton product ``a b``."""
-    ax, ay, az, aw = a[0], a[1], a[2], a[3]
-    bx, by, bz, bw = b[0], b[1], b[2], b[3]
-    out[0] = aw * bx + ax * bw + ay * bz - az * by
-    out[1] = aw * by - ax * bz + ay * bw + az * bx
-    out[2] = aw * bz + ax * by - ay * bx + az * bw
-    out[3] = aw * bw - ax * bx - ay * by - az * bz
+    out[0], out[1], out[2], out[3] = _pose_kernel._mul(a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3])
 
 
 @njit(cache=True)
 def _log(q, out):
     """``quat.log``: the rotation vector of ``q``, keeping its sign."""
-    s = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2])
-    scale = 2.0 / q[3] if s < 1e-8 else 2.0 * math.atan2(s, q[3]) / s
-    for i in range(3):
-        out[i] = q[i] * scale
+    out[0], out[1], out[2] = _pose_kernel._log(q[0], q[1], q[2], q[3])
 
 
 @njit(cache=True)
 def _exp(r, out):
     """``quat.exp``: the quaternion of rotation vector ``r``."""
-    angle = math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
-    half = 0.5 * angle
-    k = 0.5 - angle**2 / 48.0 if angle < 1e-8 else math.sin(half) / angle
-    for i in range(3):
-        out[i] = r[i] * k
-    out[3] = math.cos(half)
+    out[0], out[1], out[2], out[3] = _pose_kernel._exp(r[0], r[1], r[2])
 
 
 @njit(cache=True)
@@ -162,36 +153,9 @@ def _turn(held, free, w, out):
 
 
 @njit(cache=True, inline="always")
-def _smoothstep(x):
-    """``planting._smoothstep``."""
-    x = min(max(x, 0.0), 1.0)
-    return x * x * (3.0 - 2.0 * x)
-
-
-@njit(cache=True, inline="always")
 def _lowered(lift, hover, clearance):
     """``planting._lowered``."""
     return lift - hover * (1.0 - _smoothstep((lift - hover) / clearance))
-
-
-@njit(cache=True, inline="always")
-def _spring(x0, v0, t, halflife, ln2):
-    """``planting._spring``."""
-    y = 2.0 * ln2 / halflife
-    return (x0 + (v0 + y * x0) * t) * math.exp(-y * t)
-
-
-@njit(cache=True)
-def _hold_mode(cyclic, g, open_, times):
-    """``planting.hold_modes`` of one hold ``times (3,)`` at generic time ``g``: open or not, and the turn back."""
-    heel, close = times[1] - open_, times[2] - open_
-    if cyclic:
-        into = (g - open_) % 1.0
-        inside = into < close
-    else:
-        into = g - open_
-        inside = into >= 0.0 and (into < close or open_ + close >= 1.0 - 1e-9)
-    return inside, _smoothstep((into - heel) / max(close - heel, 1e-12))
 
 
 @njit(cache=True, inline="always")

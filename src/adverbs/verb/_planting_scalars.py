@@ -1,0 +1,39 @@
+"""Scalar rules of planted feet shared by the compiled loops: the planter's (:mod:`._planting_kernel`) and a verb
+graph's hold lookup (:mod:`adverbs.graph._time_kernel`) and decaying offsets (:mod:`adverbs.graph._blend_kernel`).
+
+Each mirrors a NumPy function of :mod:`adverbs.verb.planting` (named in its docstring), with the same arithmetic.
+A module of its own, so a graph's kernels need not load the planter's.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+
+@njit(cache=True, inline="always")
+def smoothstep(x):  # pragma: no cover - compiled
+    """``planting._smoothstep``."""
+    x = min(max(x, 0.0), 1.0)
+    return x * x * (3.0 - 2.0 * x)
+
+
+@njit(cache=True, inline="always")
+def spring(x0, v0, t, halflife, ln2):  # pragma: no cover - compiled
+    """``planting._spring``: a critically damped offset ``x0`` with velocity ``v0``, ``t`` seconds on (``ln2``: log 2)."""
+    y = 2.0 * ln2 / halflife
+    return (x0 + (v0 + y * x0) * t) * math.exp(-y * t)
+
+
+@njit(cache=True)
+def hold_mode(cyclic, g, open_, times):  # pragma: no cover - compiled
+    """``planting.hold_modes`` of one hold ``times (3,)`` at generic time ``g``: open or not, and the turn back."""
+    heel, close = times[1] - open_, times[2] - open_
+    if cyclic:
+        into = (g - open_) % 1.0
+        inside = into < close
+    else:
+        into = g - open_
+        inside = into >= 0.0 and (into < close or open_ + close >= 1.0 - 1e-9)
+    return inside, smoothstep((into - heel) / max(close - heel, 1e-12))
