@@ -33,7 +33,7 @@ from adverbs.kinematics import quat
 from adverbs.motion.clip import Clip
 from adverbs.motion._pose_kernel import blend_poses
 from adverbs.motion.encoding import advance_root
-from adverbs.verb.planting import BALL, effector_joints, hold_modes, measure_feet, planted_drift
+from adverbs.verb.planting import BALL, effector_joints, hold_modes, measure_feet, planted_drift, swing_lifts
 from adverbs.verb.store import save_verb
 
 GRAPHS = Path(__file__).resolve().parent.parent / "graphs"
@@ -523,14 +523,21 @@ def test_the_compiled_hold_phases_are_hold_modes():
     cols = np.array([1, 0])
     for cyclic in (True, False):
         g = rng.uniform(-1.5, 2.5, c)
-        held, roll = np.zeros((c, 3), dtype=bool), np.full((c, 3), -1.0)
+        held, roll, swing = np.zeros((c, 3), dtype=bool), np.full((c, 3), -1.0), np.full((c, 3), -1.0)
         rows = np.arange(0, c, 2)
-        hold_rows(g, rows, opens, times, cols, cyclic, held, roll)
+        hold_rows(g, rows, opens, times, cols, cyclic, held, roll, swing)
         t = g[rows] - np.floor(g[rows]) if cyclic else np.clip(g[rows], 0.0, 1.0)
         inside, turn = hold_modes(cyclic, t[:, None], opens, times[rows])
         np.testing.assert_array_equal(held[rows][:, cols], inside)
         np.testing.assert_allclose(roll[rows][:, cols], turn, rtol=0, atol=1e-15)
+        np.testing.assert_allclose(swing[rows][:, cols], swing_lifts(cyclic, t[:, None], opens, times[rows]), rtol=0, atol=1e-15)
         assert not held[1::2].any() and np.all(roll[1::2] == -1.0) and np.all(roll[rows, 2] == -1.0)
+        assert np.all(swing[1::2] == -1.0) and np.all(swing[rows, 2] == -1.0)
+        if cyclic:  # every value from none to all of the lift, as the swings go by
+            lifts = swing[rows][:, cols]
+            assert lifts.min() < 0.05 and lifts.max() == 1.0 and 0.05 < np.mean(lifts) < 1.0
+        else:
+            assert np.all(swing[rows][:, cols] == 0.0)
 
 
 def test_root_velocities_undo_the_root_step():

@@ -19,7 +19,7 @@ from adverbs.apps.evaluate import obedience_points
 from adverbs.kinematics import quat
 from adverbs.kinematics.fk import forward_kinematics
 from adverbs.kinematics.floor import FlatFloor, HeightMapFloor, SlopeFloor
-from adverbs.verb.planting import BALL, FREE, HEEL, FootPlanter, frame_generic, hold_modes
+from adverbs.verb.planting import BALL, FREE, HEEL, FootPlanter, frame_generic, hold_modes, swing_lifts
 
 TOL = 1e-9
 _x = np.arange(-40.0, 40.01, 0.5)
@@ -47,10 +47,11 @@ def _motions(verb):
 
 def _phases(planter, g, f):
     """The holds at generic times ``g (C,)`` as masks, with each creature's holds switched off for 5 frames of
-    every 40 (at different frames for each creature and leg)."""
+    every 40 (at different frames for each creature and leg), and the swings' least lifts."""
     inside, turn = hold_modes(planter.verb.cyclic, g[:, None], planter.opens, planter.times)
+    swing = swing_lifts(planter.verb.cyclic, g[:, None], planter.opens, planter.times)
     c, legs = np.meshgrid(np.arange(inside.shape[0]), np.arange(inside.shape[1]), indexing="ij")
-    return inside & ((f + 7 * c + 13 * legs) % 40 >= 5), turn
+    return inside & ((f + 7 * c + 13 * legs) % 40 >= 5), turn, swing
 
 
 def _assert_same_state(compiled, reference, what):
@@ -101,7 +102,7 @@ def test_compiled_planter_is_the_reference(motions, name, floor, source):
             n = len(made[key][0].mode)
             sel = slice(len(pts) - n, None)
             frame = (rot[f, sel], trans[f, sel], None if phases else g[f, sel], dt)
-            ph = None if phases is None else (phases[0][sel], phases[1][sel])
+            ph = None if phases is None else tuple(x[sel] for x in phases)
             (ra, ta, ia), (rb, tb, ib) = (p.step(*frame, ph) for p in made[key])
             _close(ta, tb, f"frame {f}: {key}: translations")
             _close(ra * np.sign(np.sum(ra * rb, axis=-1, keepdims=True)), rb, f"frame {f}: {key}: rotations")

@@ -13,7 +13,7 @@ import math
 
 from numba import njit
 
-from ..verb._planting_scalars import hold_mode
+from ..verb._planting_scalars import hold_mode, swing_lift
 
 
 @njit(cache=True)
@@ -64,18 +64,20 @@ def _generic(clock, keytimes, generic, n):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def hold_rows(g, rows, opens, times, cols, cyclic, held, roll):  # pragma: no cover - compiled
-    """For the creatures ``rows (n,)`` of one verb at generic times ``g (C,)``: whether each of its holds is open and
-    how far its foot has rolled off, written to columns ``cols (L,)`` of ``held (C, F)`` and ``roll (C, F)``.
+def hold_rows(g, rows, opens, times, cols, cyclic, held, roll, swing):  # pragma: no cover - compiled
+    """For the creatures ``rows (n,)`` of one verb at generic times ``g (C,)``: whether each of its holds is open, how
+    far its foot has rolled off and how much of the least swing lift it has, written to columns ``cols (L,)`` of
+    ``held (C, F)``, ``roll (C, F)`` and ``swing (C, F)``.
 
-    :func:`adverbs.verb.planting.hold_modes` row by row (``opens (L,)``, ``times (C, L, 3)``), on the cycle ``g``
-    falls in (cyclic) or clipped to the motion.
+    :func:`adverbs.verb.planting.hold_modes` and :func:`~adverbs.verb.planting.swing_lifts` row by row
+    (``opens (L,)``, ``times (C, L, 3)``), on the cycle ``g`` falls in (cyclic) or clipped to the motion.
     """
     for i in range(rows.shape[0]):
         c = rows[i]
         t = g[c] - math.floor(g[c]) if cyclic else min(max(g[c], 0.0), 1.0)
         for k in range(opens.shape[0]):
             held[c, cols[k]], roll[c, cols[k]] = hold_mode(cyclic, t, opens[k], times[c, k])
+            swing[c, cols[k]] = swing_lift(cyclic, t, opens[k], times[c, k])
 
 
 @njit(cache=True)

@@ -294,7 +294,7 @@ def _arrived(state: GraphState, c: int) -> None:
 class Frame:
     """One frame of C creatures: local ``rotations (C, J, 4)``, ``translations (C, J, 3)``, the ``root (C, 3)``,
     the root's velocities ``(C, 3)`` (sideways, forward m/s, turn rad/s), and per foot of the graph's feet
-    ``held (C, L)`` and ``roll (C, L)`` (see :func:`hold_phases`)."""
+    ``held (C, L)``, ``roll (C, L)`` and ``swing (C, L)`` (see :func:`hold_phases`)."""
 
     rotations: np.ndarray
     translations: np.ndarray
@@ -302,6 +302,7 @@ class Frame:
     velocity: np.ndarray
     held: np.ndarray
     roll: np.ndarray
+    swing: np.ndarray
 
 
 def feet(graph: Graph) -> list[int]:
@@ -639,7 +640,7 @@ def _step(state: GraphState, dt: float) -> Frame:
             live, state.offset_since[live], state.offset_halflife[live], state.offset_rot, state.offset_rot_vel,
             state.offset_trans, state.offset_trans_vel, rot, trans,
         )  # fmt: skip
-    held, roll = hold_phases(state)
+    held, roll, swing = hold_phases(state)
     blended = np.zeros(state.creatures, dtype=bool)
     blended[live] = True
     state.alone = (state.active < 0) & ~blended
@@ -648,7 +649,7 @@ def _step(state: GraphState, dt: float) -> Frame:
     state.root = new_root
     state.shown_before, state.shown = state.shown, (rot, trans, vel)
     state.held_before = held
-    return Frame(rot, trans, new_root.copy(), vel, held, roll)
+    return Frame(rot, trans, new_root.copy(), vel, held, roll, swing)
 
 
 def first_frame(state: GraphState) -> Frame:
@@ -661,11 +662,11 @@ def first_frame(state: GraphState) -> Frame:
         raise AdverbsError("first_frame: the creatures have already moved (it is the frame before any step)")
     base = _sample(state, state.g, state.g_into)
     rot, trans = _decode(state, base, state.root)
-    held, roll = hold_phases(state)
+    held, roll, swing = hold_phases(state)
     state.alone = state.active < 0
     state.moving = base.velocity.copy()
     state.shown, state.held_before = (rot, trans, base.velocity.copy()), held
-    return Frame(rot, trans, state.root.copy(), base.velocity.copy(), held, roll)
+    return Frame(rot, trans, state.root.copy(), base.velocity.copy(), held, roll, swing)
 
 
 def _velocity(old: np.ndarray, new: np.ndarray, dt: float) -> np.ndarray:
@@ -706,12 +707,14 @@ def _keep_feet(
     return root
 
 
-def hold_phases(state: GraphState) -> tuple[np.ndarray, np.ndarray]:
-    """For every creature and every foot of the graph ``(C, L)``: whether it is held, and how far it has rolled off.
+def hold_phases(state: GraphState) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For every creature and every foot of the graph ``(C, L)``: whether it is held, how far it has rolled off, and
+    how much of the least swing lift a free foot keeps under it (:func:`adverbs.verb.planting.swing_lifts`).
 
     A verb instance holds a foot as its own hold says at its generic time (the examples' contact times at its
     adverbs); a verb without a hold on that foot never holds it. In a cosine blend a foot is held only where
-    both verbs hold it (released by either, released) and has rolled as far as the further of the two.
+    both verbs hold it (released by either, released), has rolled as far as the further of the two, and keeps
+    the lesser swing lift (the verb that lands it sooner puts it down).
     """
     graph = state.graph
     c = state.creatures
@@ -719,25 +722,27 @@ def hold_phases(state: GraphState) -> tuple[np.ndarray, np.ndarray]:
     moving = c_all[state.active >= 0]
     inertial = (state.active >= 0) & state.inertial
 
-    def phases(verbs: np.ndarray, g: np.ndarray, slot: int, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def phases(verbs: np.ndarray, g: np.ndarray, slot: int, rows: np.ndarray) -> tuple[np.ndarray, ...]:
         h = np.zeros((c, len(graph.feet)), dtype=bool)
         r = np.zeros((c, len(graph.feet)))
+        s = np.zeros((c, len(graph.feet)))
         for v, which in _by_verb(verbs, rows):
             verb = graph.verbs[v]
             if verb.holds:
                 opens, cols = graph.hold_layout[v]
-                hold_rows(g, rows[which], opens, _hold_times(state, v, slot), cols, verb.cyclic, h, r)
-        return h, r
+                hold_rows(g, rows[which], opens, _hold_times(state, v, slot), cols, verb.cyclic, h, r, s)
+        return h, r, s
 
-    ha, ra = phases(state.verb, state.g, 0, c_all[~inertial])
+    ha, ra, sa = phases(state.verb, state.g, 0, c_all[~inertial])
     if len(moving):
-        hb, rb = phases(state.into, state.g_into, 1, moving)
+        hb, rb, sb = phases(state.into, state.g_into, 1, moving)
     else:
-        return ha, ra
+        return ha, ra, sa
     alone = state.active < 0
     held = np.where(alone[:, None], ha, np.where(inertial[:, None], hb, ha & hb))
     roll = np.where(alone[:, None], ra, np.where(inertial[:, None], rb, np.maximum(ra, rb)))
-    return held, roll
+    swing = np.where(alone[:, None], sa, np.where(inertial[:, None], sb, np.minimum(sa, sb)))
+    return held, roll, swing
 
 
 REPLANT = 0.06  # metres: a held foot this far (across the floor) from where the verb playing has it is re-placed
@@ -772,7 +777,7 @@ class GraphFeet:
 
 def planter(graph: Graph, creatures: int = 1, floor: Floor | None = None) -> GraphFeet:
     """The foot planter for ``creatures`` creatures of ``graph``, fed each frame's :attr:`Frame.held` and
-    :attr:`Frame.roll` by :func:`plant`. Its legs and contact heights are those of the first verb that holds feet;
+    :attr:`Frame.roll` and :attr:`Frame.swing` by :func:`plant`. Its legs and contact heights are those of the first verb that holds feet;
     every verb that holds any must hold the same ones."""
     holding = [v for v in graph.verbs if v.holds]
     if not holding:
@@ -796,7 +801,7 @@ def plant(feet: GraphFeet, frame: Frame, dt: float, alone: np.ndarray | None = N
     """
     p = feet.planter
     held = frame.held & ~feet.replanting
-    out = p.step(frame.rotations, frame.translations, None, dt, (held, frame.roll))
+    out = p.step(frame.rotations, frame.translations, None, dt, (held, frame.roll, frame.swing))
     if feet.replanting.any():
         settled = np.linalg.norm(p._offset(), axis=-1) < REPLANTED
         feet.replanting &= ~((p.mode == FREE) & settled & (p.since[..., 0] > 0))

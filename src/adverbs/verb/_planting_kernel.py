@@ -32,17 +32,21 @@ from ..motion import _pose_kernel
 from ._planting_scalars import hold_mode as _hold_mode
 from ._planting_scalars import smoothstep as _smoothstep
 from ._planting_scalars import spring as _spring
+from ._planting_scalars import swing_lift as _swing_lift
 
 PLANE, GRID = 0, 1
 FREE, HEEL, BALL = 0, 1, 2  # planting.FREE, HEEL, BALL
 # Where each constant sits in ``k_`` (see constants()).
 _SWING, _LN2, _OFFSET, _SETTLE, _CLEARANCE, _STILL_DOWN, _LIFTS_OFF, _TOE_LANDS, _FADE = 0, 1, 2, 5, 6, 7, 8, 9, 10
+_SWING_LIFT = 11
 
 
-def constants(swing, ln2, halflives, settle, clearance, still_down, lifts_off, toe_lands, drop_halflife):
+def constants(swing, ln2, halflives, settle, clearance, still_down, lifts_off, toe_lands, drop_halflife, swing_lift):
     """``k_``: ``SWING_HALFLIFE``, ln 2, the free offset's half-lives ``(3,)``, ``SETTLE_HALFLIFE``,
-    ``SWING_CLEARANCE``, ``STILL_DOWN``, ``LIFTS_OFF``, ``TOE_LANDS``, and ln 2 / ``DROP_HALFLIFE``."""
-    return np.array([swing, ln2, *halflives, settle, clearance, still_down, lifts_off, toe_lands, ln2 / drop_halflife])
+    ``SWING_CLEARANCE``, ``STILL_DOWN``, ``LIFTS_OFF``, ``TOE_LANDS``, ln 2 / ``DROP_HALFLIFE`` and ``SWING_LIFT``."""
+    return np.array(
+        [swing, ln2, *halflives, settle, clearance, still_down, lifts_off, toe_lands, ln2 / drop_halflife, swing_lift]
+    )
 
 
 # ----- floors: kinematics.floor ---------------------------------------------------------------------------
@@ -223,12 +227,12 @@ def _land(c, i, point, height, floor, state):
 
 
 @njit(cache=True)
-def advance(free_pos, free_rot, generic, inside_in, turn_in, use_phases, dt, start, times, cyclic, verb_floor,
-            legs, k_, floor, state, shown_out, wanted_out):  # fmt: skip
+def advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, use_phases, dt, start, times, cyclic,
+            verb_floor, legs, k_, floor, state, shown_out, wanted_out):  # fmt: skip
     """``FootPlanter.targets_reference``: every creature's effectors advanced by one frame (``state`` in place);
     their targets into ``shown_out (C, L, 3)`` and wanted orientations into ``wanted_out (C, L, 3, 3)``.
 
-    ``generic (C,)`` or, with ``use_phases``, ``inside_in``, ``turn_in (C, L)``; ``dt (C,)``; ``start``: the
+    ``generic (C,)`` or, with ``use_phases``, ``inside_in``, ``turn_in``, ``swing_in (C, L)``; ``dt (C,)``; ``start``: the
     first frame (the contact levels from the feet that are down); ``times (C, L, 3)``: the holds' times.
     """
     mode, turn, _, held_rot, offset, offset_vel, since, spent, rising, rel_vec, rot_since, settle = state[:12]
@@ -237,16 +241,17 @@ def advance(free_pos, free_rot, generic, inside_in, turn_in, use_phases, dt, sta
     n_c, n_l = free_pos.shape[0], free_pos.shape[1]
     clearance, still_down, lifts_off, toe_lands = k_[_CLEARANCE], k_[_STILL_DOWN], k_[_LIFTS_OFF], k_[_TOE_LANDS]
     inside = np.empty(n_l, dtype=np.bool_)
-    turns, lifts = np.empty(n_l), np.empty(n_l)
+    turns, lifts, swings = np.empty(n_l), np.empty(n_l), np.empty(n_l)
     base, vel, arm, shown, q = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(4)
     wanted, free_wanted, rel = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
     s = np.empty((4, 3, 3))
     for c in range(n_c):
         for i in range(n_l):
             if use_phases:
-                inside[i], turns[i] = inside_in[c, i], turn_in[c, i]
+                inside[i], turns[i], swings[i] = inside_in[c, i], turn_in[c, i], swing_in[c, i]
             else:
                 inside[i], turns[i] = _hold_mode(cyclic, generic[c], opens[i], times[c, i])
+                swings[i] = _swing_lift(cyclic, generic[c], opens[i], times[c, i])
             # How far the verb's effector is above its contact height (its own floor at these adverbs).
             lifts[i] = 0.0 if math.isnan(heights[i]) else free_pos[c, i, 1] - verb_floor - heights[i]
         if start:  # the verb's level from the feet that are down now, else none
@@ -280,8 +285,10 @@ def advance(free_pos, free_rot, generic, inside_in, turn_in, use_phases, dt, sta
                 if math.isfinite(gr):
                     hover[c, i] = gr
                 raised = _lowered(lift, hover[c, i], clearance)  # the let-go foot's new level
-            # Where the free rule puts the foot: the verb's, lowered by its hover, on the floor.
-            base[0], base[1], base[2] = fp[0], _height(floor, fp[0], fp[2]) + height + raised, fp[2]
+            # Where the free rule puts the foot: the verb's, lowered by its hover, on the floor, lifted at least
+            # the swing's least lift.
+            least = -np.inf if follows or held else k_[_SWING_LIFT] * swings[i]  # (not for a foot about to land)
+            base[0], base[1], base[2] = fp[0], _height(floor, fp[0], fp[2]) + height + max(raised, least), fp[2]
             _tilt(floor, base[0], base[2], s[0])
             _mm(s[0], fr, free_wanted)
             rot_since[c, i] += d
@@ -362,8 +369,8 @@ def drop_for(hips, rises, targets, wanted, dt, tip, reach, max_drop, k_, drop):
 
 
 @njit(cache=True)
-def step(parents, rotations, translations, generic, inside_in, turn_in, use_phases, dt, start, times, cyclic,
-         verb_floor, tips, root, legs, k_, floor, state, chain, ik_params, out):  # fmt: skip
+def step(parents, rotations, translations, generic, inside_in, turn_in, swing_in, use_phases, dt, start, times,
+         cyclic, verb_floor, tips, root, legs, k_, floor, state, chain, ik_params, out):  # fmt: skip
     """``FootPlanter.step_reference`` of ``C`` creatures' poses ``rotations (C, J, 4)``, ``translations (C, J, 3)``,
     planted in place: FK, :func:`advance`, :func:`rise`, :func:`drop_for`, the pelvis raised
     (``planting._ride_floor``), the feet's tilts (``FootPlanter._tilts``), then the IK
@@ -387,8 +394,8 @@ def step(parents, rotations, translations, generic, inside_in, turn_in, use_phas
             free_pos[c, i] = gpos[c, tips[i]]
             hips[c, i] = gpos[c, upper[i]]
             _quat_to_mat(grot[c, end[i]], free_rot[c, i])
-    advance(free_pos, free_rot, generic, inside_in, turn_in, use_phases, dt, start, times, cyclic, verb_floor,
-            legs, k_, floor, state, targets, wanted)  # fmt: skip
+    advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, use_phases, dt, start, times, cyclic,
+            verb_floor, legs, k_, floor, state, targets, wanted)  # fmt: skip
     rise(gpos[:, root], targets, verb_floor, floor, rises)
     drop_for(hips, rises, targets, wanted, dt, tip, reach, max_drop, k_, drop)
     pelvis = above[len(above) - 1]

@@ -11,6 +11,8 @@ import math
 
 from numba import njit
 
+SWING_LANDING = 0.3  # fraction of a swing (toe-off to the next landing) over which its least lift fades to none
+
 
 @njit(cache=True, inline="always")
 def smoothstep(x):  # pragma: no cover - compiled
@@ -37,3 +39,15 @@ def hold_mode(cyclic, g, open_, times):  # pragma: no cover - compiled
         into = g - open_
         inside = into >= 0.0 and (into < close or open_ + close >= 1.0 - 1e-9)
     return inside, smoothstep((into - heel) / max(close - heel, 1e-12))
+
+
+@njit(cache=True)
+def swing_lift(cyclic, g, open_, times):  # pragma: no cover - compiled
+    """``planting.swing_lifts`` of one hold ``times (3,)`` at generic time ``g``: how much of the least swing lift applies."""
+    if not cyclic:
+        return 0.0
+    close = times[2] - open_
+    into = (g - open_) % 1.0
+    if into < close or close >= 1.0:
+        return 1.0
+    return smoothstep((1.0 - (into - close) / (1.0 - close)) / SWING_LANDING)

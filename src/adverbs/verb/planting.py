@@ -52,6 +52,7 @@ from ..kinematics.fk import forward_kinematics
 from ..kinematics.floor import FlatFloor, Floor, HeightMapFloor, SlopeFloor, tilt
 from ..motion.clip import Clip
 from ..motion.contacts import runs
+from ._planting_scalars import SWING_LANDING
 from .tables import Verb
 
 LIFT_HALFLIFE = 0.015  # seconds: the vertical part of a released foot's offset halves this fast
@@ -72,6 +73,7 @@ _AT_REST = np.array([1.0, 0.0, 1.0])  # which parts of the verb's velocity a rel
 FREE, HEEL, BALL = 0, 1, 2  # what a foot is doing: swinging, landed on its heel, on its ball
 SWING_CLEARANCE = 0.1  # metres above the verb's own contact level where its swing is no longer lowered
 LIFTED = 0.02  # metres above its contact height: a released foot this high has left the ground
+SWING_LIFT = 0.03  # metres: the least a cyclic verb's swing lifts a released ball over its contact height
 LIFTS_OFF = 0.02  # metres: a rolling foot's ball this far above its contact level is lifting off
 STILL_DOWN = 0.005  # metres: a held ball the verb raises less than this over its level is still down
 TOE_LANDS = 0.003  # metres: a rolling foot's ball this close to its contact height has landed
@@ -167,7 +169,7 @@ class FootPlanter:
         free_rot: np.ndarray,
         generic: np.ndarray | None,
         dt: float | np.ndarray,
-        phases: tuple[np.ndarray, np.ndarray] | None = None,
+        phases: tuple[np.ndarray, ...] | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`targets_reference`, compiled where the floor allows."""
         if self._compiled is None:
@@ -180,23 +182,27 @@ class FootPlanter:
         free_rot: np.ndarray,
         generic: np.ndarray | None,
         dt: float | np.ndarray,
-        phases: tuple[np.ndarray, np.ndarray] | None = None,
+        phases: tuple[np.ndarray, ...] | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Advance the state by one frame; the effectors' targets ``(C, L, 3)`` and wanted foot orientations ``(C, L, 3, 3)``.
 
         ``free_pos (C, L, 3)`` and ``free_rot (C, L, 3, 3)``: where the verb puts each effector and the
         global orientation of its foot (the chain's end) this frame; ``generic (C,)``: the frame's
         generic time; ``dt``: seconds since the previous frame (one for all, or ``(C,)``). The orientations
-        include the floor's tilt. ``phases``: instead of ``generic``, whether each hold is open ``(C, L)`` and
-        how far each foot has rolled off ``(C, L)``, from elsewhere (a verb graph's blend of two verbs).
+        include the floor's tilt. ``phases``: instead of ``generic``, whether each hold is open ``(C, L)``, how
+        far each foot has rolled off ``(C, L)`` and, optionally, how much of the least swing lift applies
+        ``(C, L)`` (:func:`swing_lifts`; none if not given), from elsewhere (a verb graph's blend of two verbs).
         """
         verb, floor, tip = self.verb, self.floor, self.chains.tip_offset
         follows = np.broadcast_to(np.isnan(self.heights), self.mode.shape)  # effectors that keep the verb's height
         height = np.where(follows, 0.0, self.heights)
         if phases is None:
-            inside, turn = hold_modes(self.verb.cyclic, np.asarray(generic, dtype=float)[:, None], self.opens, self.times)
+            g = np.asarray(generic, dtype=float)[:, None]
+            inside, turn = hold_modes(self.verb.cyclic, g, self.opens, self.times)
+            swing = swing_lifts(self.verb.cyclic, g, self.opens, self.times)
         else:
-            inside, turn = (np.asarray(x) for x in phases)
+            inside, turn = (np.asarray(x) for x in phases[:2])
+            swing = np.asarray(phases[2], dtype=float) if len(phases) > 2 else np.zeros(self.mode.shape)
         # How far the verb's effector is above its contact height (its own floor at these adverbs).
         lift = np.where(follows, 0.0, free_pos[..., 1] - verb.floor - height)
         if not self.started:  # the verb's level from the feet that are down now, else none
@@ -222,9 +228,11 @@ class FootPlanter:
         opening, closing = inside & (self.mode == FREE), ~inside & (self.mode != FREE)
         self.hover = np.where(closing & np.isfinite(self.ground), self.ground, self.hover)
         raised = np.where(closing, _lowered(lift, self.hover), raised)  # the let-go feet's new level
-        # Where the free rule puts the foot: the verb's, lowered by its hover, on the floor.
+        # Where the free rule puts the foot: the verb's, lowered by its hover, on the floor, and at least the
+        # swing's least lift over it (a verb that drags its foot through the swing has it lifted).
         base = free_pos.copy()
-        base[..., 1] = floor.height(free_pos[..., [0, 2]]) + height + raised
+        least = np.where(follows | inside, -np.inf, SWING_LIFT * swing)  # (not for a foot about to land)
+        base[..., 1] = floor.height(free_pos[..., [0, 2]]) + height + np.maximum(raised, least)
         free_wanted = self._tilt(base[..., [0, 2]]) @ free_rot
         self.rot_since += dt[..., 0]
         # Rolling off: the ball rises as the verb's does over its contact level, weighted in as the heel lifts.
@@ -340,7 +348,7 @@ class FootPlanter:
         translations: np.ndarray,
         generic: np.ndarray | None,
         dt: float,
-        phases: tuple[np.ndarray, np.ndarray] | None = None,
+        phases: tuple[np.ndarray, ...] | None = None,
     ) -> tuple[np.ndarray, np.ndarray, ik.IKResult]:
         """:meth:`step_reference`, compiled where the floor allows: one call for FK, the state machine and IK."""
         if self._compiled is None:
@@ -353,7 +361,7 @@ class FootPlanter:
         translations: np.ndarray,
         generic: np.ndarray | None,
         dt: float,
-        phases: tuple[np.ndarray, np.ndarray] | None = None,
+        phases: tuple[np.ndarray, ...] | None = None,
     ) -> tuple[np.ndarray, np.ndarray, ik.IKResult]:
         """Plant the feet of one frame of ``C`` creatures: local ``rotations (C, J, 4)``, ``translations (C, J, 3)``
         of the verb's motion, their generic times ``(C,)`` (or ``phases``, see :meth:`targets`) and the seconds
@@ -416,7 +424,7 @@ class _Compiled:
         self.floor = floor  # _compiled_floor(planter.floor)
         self.constants = k.constants(
             SWING_HALFLIFE, _LN2, _HALFLIVES, SETTLE_HALFLIFE, SWING_CLEARANCE, STILL_DOWN, LIFTS_OFF, TOE_LANDS,
-            DROP_HALFLIFE,
+            DROP_HALFLIFE, SWING_LIFT,
         )  # fmt: skip
         tip = np.ascontiguousarray(chains.tip_offset, dtype=float)
         self.legs = (planter.heights, planter.opens, planter.heel_heights, tip)
@@ -431,7 +439,7 @@ class _Compiled:
         self.root = int(verb.encoding.body_root)
         self.dt = np.empty(c)
         self.no_generic = np.zeros(c)  # stand-ins for the inputs not given
-        self.no_phases = (np.zeros((c, n), dtype=bool), np.zeros((c, n)))
+        self.no_phases = (np.zeros((c, n), dtype=bool), np.zeros((c, n)), np.zeros((c, n)))
         self.scratch: tuple | None = None  # step's arrays that are not returned
 
     def _state(self) -> tuple:
@@ -443,7 +451,7 @@ class _Compiled:
         )  # fmt: skip
 
     def _frame(self, generic, dt, phases) -> tuple:
-        """``generic, inside, turn, use_phases`` as the kernel takes them; ``dt`` into ``self.dt``."""
+        """``generic, inside, turn, swing, use_phases`` as the kernel takes them; ``dt`` into ``self.dt``."""
         self.dt[:] = dt
         shape = self.planter.mode.shape
         if phases is None:
@@ -452,9 +460,10 @@ class _Compiled:
                 generic = np.ascontiguousarray(np.broadcast_to(generic, shape[:1]))
             return generic, *self.no_phases, False
         inside, turn = np.asarray(phases[0], dtype=bool), np.asarray(phases[1], dtype=float)
-        if inside.shape != shape or turn.shape != shape:
-            inside, turn = (np.ascontiguousarray(np.broadcast_to(x, shape)) for x in (inside, turn))
-        return self.no_generic, inside, turn, True
+        swing = np.asarray(phases[2], dtype=float) if len(phases) > 2 else self.no_phases[2]
+        if inside.shape != shape or turn.shape != shape or swing.shape != shape:
+            inside, turn, swing = (np.ascontiguousarray(np.broadcast_to(x, shape)) for x in (inside, turn, swing))
+        return self.no_generic, inside, turn, swing, True
 
     def _times(self) -> np.ndarray:
         """The holds' times ``(C, L, 3)`` (``set_weights`` and ``plant_feet_many`` set them)."""
@@ -544,6 +553,21 @@ def hold_modes(cyclic: bool, g: np.ndarray, opens: np.ndarray, times: np.ndarray
         into = g - opens
         inside = (into >= 0.0) & ((into < close) | (opens + close >= 1.0 - 1e-9))
     return inside, _smoothstep((into - heel) / np.maximum(close - heel, 1e-12))
+
+
+def swing_lifts(cyclic: bool, g: np.ndarray, opens: np.ndarray, times: np.ndarray) -> np.ndarray:
+    """How much of ``SWING_LIFT`` a free foot keeps under it at generic times ``g (..., 1)``: ``(..., L)``, 1 from
+    toe-off (and while its hold is open, for a foot let go early), fading to 0 by smoothstep over the last
+    ``SWING_LANDING`` of the swing, so the foot lands where the verb lands it. A one-shot verb's feet get none:
+    their swings have no next landing to come down for."""
+    shape = np.broadcast_shapes(np.shape(g), np.shape(times)[:-1])
+    if not cyclic:
+        return np.zeros(shape)
+    close = times[..., 2] - opens
+    into = (g - opens) % 1.0
+    swung = (into - close) / np.where(close < 1.0, 1.0 - close, 1.0)
+    lift = _smoothstep((1.0 - swung) / SWING_LANDING)
+    return np.broadcast_to(np.where((into < close) | (close >= 1.0), 1.0, lift), shape)
 
 
 def _lowered(lift: np.ndarray, hover: np.ndarray) -> np.ndarray:
