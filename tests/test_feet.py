@@ -99,25 +99,24 @@ def test_released_feet_leave_from_rest(verbs, run_verbs, case):
 
 @pytest.mark.parametrize("case", CASES, ids=["-".join(c) for c in CASES])
 def test_released_feet_lift_before_they_travel(verbs, run_verbs, case):
-    """A released toe travels at most 1 cm horizontally while it is within 2 cm of its contact height on its
-    way up — wherever the verb's own toe does so too. (Where the verb's own swing skims the ground — a pivot
-    turn, a shuffling jog: 3–16 of 42–78 releases on the CMU verbs — no planter lifts what the capture drags;
-    the README reports those.)"""
+    """No released toe travels more than 1 cm horizontally while it is within 2 cm of its contact height on its way
+    up: every release, those where the verb's own swing skims the ground (a pivot turn, a shuffling jog) included,
+    which the swing's least lift (``SWING_LIFT``) takes off the floor."""
     rows = planted(verbs, run_verbs, *case)
-    clean = np.concatenate([m.slide[m.free_slide <= 0.01] for m, _ in rows])
-    assert len(clean) >= 0.7 * sum(len(m.slide) for m, _ in rows)
-    assert clean.max() <= bound(case, "slide", 0.01), np.round(np.sort(clean)[-3:] * 1000, 1)
+    slides = np.concatenate([m.slide for m, _ in rows])
+    assert len(slides) and slides.max() <= bound(case, "slide", 0.01), np.round(np.sort(slides)[-3:] * 1000, 1)
 
 
-@pytest.mark.parametrize("case", CASES, ids=["-".join(c) for c in CASES])
-def test_where_the_verb_skims_planted_feet_skim_no_further(verbs, run_verbs, case):
-    """Where the verb's own released toe travels more than 1 cm under 2 cm, the planted toe travels at most a
-    quarter further (measured: at most 1.21x, on CMU jogs whose toe the planter holds at the floor while the
-    verb's hovers over it; 1.00-1.10x on the walks)."""
-    rows = planted(verbs, run_verbs, *case)
-    skims = [(m.slide[m.free_slide > 0.01], m.free_slide[m.free_slide > 0.01]) for m, _ in rows]
-    ours, own = (np.concatenate(x) for x in zip(*skims))
-    assert np.all(ours <= 1.25 * own), np.round(np.max(ours / own), 2)
+@pytest.mark.parametrize("name", ["cmu_walk", "cmu_run"])
+def test_the_verbs_own_skimming_swings_are_lifted(verbs, run_verbs, name):
+    """The CMU verbs' own swings drag a toe along the floor on some releases (the verb's toe travels more than
+    1 cm, up to 1.4 m on the jog turning right, before it is 2 cm up); planted, those toes travel at most 1 cm
+    before they are 2 cm up. (Without the least lift they followed the verb's, up to 1.6 m along the floor.)"""
+    rows = [m for kind in KINDS for m, _ in planted(verbs, run_verbs, name, "flat", kind)]
+    skims = np.concatenate([m.free_slide > 0.01 for m in rows])
+    slides = np.concatenate([m.slide for m in rows])
+    assert skims.sum() >= 5, skims.sum()  # the case this is about is in the data
+    assert slides[skims].max() <= 0.01, slides[skims].max()
 
 
 @pytest.mark.parametrize("name", RUNS)

@@ -38,15 +38,18 @@ PLANE, GRID = 0, 1
 FREE, HEEL, BALL = 0, 1, 2  # planting.FREE, HEEL, BALL
 # Where each constant sits in ``k_`` (see constants()).
 _SWING, _LN2, _OFFSET, _SETTLE, _CLEARANCE, _STILL_DOWN, _LIFTS_OFF, _TOE_LANDS, _FADE = 0, 1, 2, 5, 6, 7, 8, 9, 10
-_SWING_LIFT = 11
+_SWING_LIFT, _LIFT_BLEND = 11, 12
 
 
-def constants(swing, ln2, halflives, settle, clearance, still_down, lifts_off, toe_lands, drop_halflife, swing_lift):
+def constants(swing, ln2, halflives, settle, clearance, still_down, lifts_off, toe_lands, drop_halflife, swing_lift,
+              lift_blend):  # fmt: skip
     """``k_``: ``SWING_HALFLIFE``, ln 2, the free offset's half-lives ``(3,)``, ``SETTLE_HALFLIFE``,
-    ``SWING_CLEARANCE``, ``STILL_DOWN``, ``LIFTS_OFF``, ``TOE_LANDS``, ln 2 / ``DROP_HALFLIFE`` and ``SWING_LIFT``."""
-    return np.array(
-        [swing, ln2, *halflives, settle, clearance, still_down, lifts_off, toe_lands, ln2 / drop_halflife, swing_lift]
-    )
+    ``SWING_CLEARANCE``, ``STILL_DOWN``, ``LIFTS_OFF``, ``TOE_LANDS``, ln 2 / ``DROP_HALFLIFE``, ``SWING_LIFT`` and
+    ``LIFT_BLEND``."""
+    return np.array([
+        swing, ln2, *halflives, settle, clearance, still_down, lifts_off, toe_lands, ln2 / drop_halflife, swing_lift,
+        lift_blend,
+    ])  # fmt: skip
 
 
 # ----- floors: kinematics.floor ---------------------------------------------------------------------------
@@ -160,6 +163,13 @@ def _turn(held, free, w, out):
 def _lowered(lift, hover, clearance):
     """``planting._lowered``."""
     return lift - hover * (1.0 - _smoothstep((lift - hover) / clearance))
+
+
+@njit(cache=True, inline="always")
+def _smooth_max(a, b, k):
+    """``planting._smooth_max``."""
+    h = max(k - abs(a - b), 0.0) / k
+    return max(a, b) + 0.25 * k * h * h
 
 
 @njit(cache=True, inline="always")
@@ -288,7 +298,7 @@ def advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, use_phase
             # Where the free rule puts the foot: the verb's, lowered by its hover, on the floor, lifted at least
             # the swing's least lift.
             least = -np.inf if follows or held else k_[_SWING_LIFT] * swings[i]  # (not for a foot about to land)
-            base[0], base[1], base[2] = fp[0], _height(floor, fp[0], fp[2]) + height + max(raised, least), fp[2]
+            base[0], base[1], base[2] = fp[0], _height(floor, fp[0], fp[2]) + height + _smooth_max(raised, least, k_[_LIFT_BLEND]), fp[2]
             _tilt(floor, base[0], base[2], s[0])
             _mm(s[0], fr, free_wanted)
             rot_since[c, i] += d

@@ -22,7 +22,12 @@ Per effector, with ``g`` the frame's generic time and :class:`~adverbs.verb.cons
   hovered over its floor (at extrapolated adverbs the verb can lift the whole stance), never below the
   floor plus the contact height. The verb's level is the lowest its foot got over the hold (rolling off
   included: a toe joint dips as the foot pivots on its ball), so the foot clears the ground by as much
-  as the verb's own does, and a rolling ball rises over that level as the verb's rises over it.
+  as the verb's own does, and a rolling ball rises over that level as the verb's rises over it. A cyclic
+  verb's released ball also swings at least ``SWING_LIFT`` (3 cm) over its contact height, joined smoothly
+  (:func:`_smooth_max`) and faded out over the last ``SWING_LANDING`` (30%) of the swing before the next
+  landing (:func:`swing_lifts`): where the capture drags its toe through the swing (a pivot turn, a shuffling
+  jog), the foot is lifted off the floor instead of sliding along it; where the verb's swing is higher, the
+  lift changes nothing.
 * **Switches are inertialized**: the gap between where the foot was shown and where the new rule puts
   it is an offset that decays to zero as a critically damped spring (``x(t) = (x₀ + (v₀ + y x₀) t)
   e^{−y t}``). At release ``v₀`` cancels the verb's horizontal foot velocity, so the foot leaves from
@@ -74,6 +79,7 @@ FREE, HEEL, BALL = 0, 1, 2  # what a foot is doing: swinging, landed on its heel
 SWING_CLEARANCE = 0.1  # metres above the verb's own contact level where its swing is no longer lowered
 LIFTED = 0.02  # metres above its contact height: a released foot this high has left the ground
 SWING_LIFT = 0.03  # metres: the least a cyclic verb's swing lifts a released ball over its contact height
+LIFT_BLEND = 0.02  # metres: within this of the least lift, the verb's swing joins it smoothly (no kink)
 LIFTS_OFF = 0.02  # metres: a rolling foot's ball this far above its contact level is lifting off
 STILL_DOWN = 0.005  # metres: a held ball the verb raises less than this over its level is still down
 TOE_LANDS = 0.003  # metres: a rolling foot's ball this close to its contact height has landed
@@ -232,7 +238,7 @@ class FootPlanter:
         # swing's least lift over it (a verb that drags its foot through the swing has it lifted).
         base = free_pos.copy()
         least = np.where(follows | inside, -np.inf, SWING_LIFT * swing)  # (not for a foot about to land)
-        base[..., 1] = floor.height(free_pos[..., [0, 2]]) + height + np.maximum(raised, least)
+        base[..., 1] = floor.height(free_pos[..., [0, 2]]) + height + _smooth_max(raised, least, LIFT_BLEND)
         free_wanted = self._tilt(base[..., [0, 2]]) @ free_rot
         self.rot_since += dt[..., 0]
         # Rolling off: the ball rises as the verb's does over its contact level, weighted in as the heel lifts.
@@ -424,7 +430,7 @@ class _Compiled:
         self.floor = floor  # _compiled_floor(planter.floor)
         self.constants = k.constants(
             SWING_HALFLIFE, _LN2, _HALFLIVES, SETTLE_HALFLIFE, SWING_CLEARANCE, STILL_DOWN, LIFTS_OFF, TOE_LANDS,
-            DROP_HALFLIFE, SWING_LIFT,
+            DROP_HALFLIFE, SWING_LIFT, LIFT_BLEND,
         )  # fmt: skip
         tip = np.ascontiguousarray(chains.tip_offset, dtype=float)
         self.legs = (planter.heights, planter.opens, planter.heel_heights, tip)
@@ -575,6 +581,13 @@ def _lowered(lift: np.ndarray, hover: np.ndarray) -> np.ndarray:
     contact level at these adverbs) near that level, fading to none ``SWING_CLEARANCE`` above it, so the
     foot lands on the floor and swings as high as the verb swings it."""
     return lift - hover * (1.0 - _smoothstep((lift - hover) / SWING_CLEARANCE))
+
+
+def _smooth_max(a: np.ndarray, b: np.ndarray, k: float) -> np.ndarray:
+    """``max(a, b)``, rounded where the two are within ``k`` of each other (``+ k h²/4``, ``h = 1 − |a − b|/k``), so
+    its slope does not jump where one overtakes the other."""
+    h = np.maximum(k - np.abs(a - b), 0.0) / k
+    return np.maximum(a, b) + 0.25 * k * h * h
 
 
 def _smoothstep(x: np.ndarray) -> np.ndarray:
