@@ -101,7 +101,11 @@ class FunctionFloor(Floor):
 
 
 class HeightMapFloor(Floor):
-    """Heights sampled on a regular grid (see the module docstring for the file format)."""
+    """Heights sampled on a regular grid (see the module docstring for the file format), bilinear between them.
+
+    Attributes ``x (nx,)`` and ``z (nz,)``: the grid lines, metres; ``heights (nz, nx)``: the height at each
+    crossing (not to be changed: the interpolator and a compiled planter read the same grid).
+    """
 
     def __init__(self, heights: np.ndarray, spacing: float, origin: tuple[float, float] = (0.0, 0.0), name: str = ""):
         heights = np.asarray(heights, dtype=float)
@@ -118,6 +122,7 @@ class HeightMapFloor(Floor):
         self._lo = np.array([x[0], z[0]])
         self._hi = np.array([x[-1], z[-1]])
         self._grid = RegularGridInterpolator((z, x), heights, method="linear")
+        self.x, self.z, self.heights = x, z, np.ascontiguousarray(self._grid.values, dtype=float)
         self.step = spacing / 4
 
     @classmethod

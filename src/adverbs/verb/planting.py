@@ -528,9 +528,8 @@ def _compiled_floor(floor: Floor) -> tuple | None:
         plane_tilt = np.eye(3) if floor.is_flat else tilt(floor.normal(np.zeros(2)))
         return 0, params, plane_tilt, none, none, no_grid
     if type(floor) is HeightMapFloor:
-        gz, gx = (np.ascontiguousarray(a, dtype=float) for a in floor._grid.grid)
         params = np.array([0.0, 0.0, 0.0, 0.0, floor.step])
-        return 1, params, np.eye(3), gx, gz, np.ascontiguousarray(floor._grid.values, dtype=float)
+        return 1, params, np.eye(3), floor.x, floor.z, floor.heights
     return None
 
 
