@@ -13,7 +13,7 @@ import math
 
 from numba import njit
 
-from ..verb._planting_scalars import hold_mode, swing_lift
+from ..verb._planting_scalars import hold_mode
 
 
 @njit(cache=True)
@@ -76,8 +76,7 @@ def hold_rows(g, rows, opens, times, cols, cyclic, held, roll, swing):  # pragma
         c = rows[i]
         t = g[c] - math.floor(g[c]) if cyclic else min(max(g[c], 0.0), 1.0)
         for k in range(opens.shape[0]):
-            held[c, cols[k]], roll[c, cols[k]] = hold_mode(cyclic, t, opens[k], times[c, k])
-            swing[c, cols[k]] = swing_lift(cyclic, t, opens[k], times[c, k])
+            held[c, cols[k]], roll[c, cols[k]], swing[c, cols[k]] = hold_mode(cyclic, t, opens[k], times[c, k])
 
 
 @njit(cache=True)

@@ -32,7 +32,6 @@ from ..motion import _pose_kernel
 from ._planting_scalars import hold_mode as _hold_mode
 from ._planting_scalars import smoothstep as _smoothstep
 from ._planting_scalars import spring as _spring
-from ._planting_scalars import swing_lift as _swing_lift
 
 PLANE, GRID = 0, 1
 FREE, HEEL, BALL = 0, 1, 2  # planting.FREE, HEEL, BALL
@@ -260,8 +259,7 @@ def advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, use_phase
             if use_phases:
                 inside[i], turns[i], swings[i] = inside_in[c, i], turn_in[c, i], swing_in[c, i]
             else:
-                inside[i], turns[i] = _hold_mode(cyclic, generic[c], opens[i], times[c, i])
-                swings[i] = _swing_lift(cyclic, generic[c], opens[i], times[c, i])
+                inside[i], turns[i], swings[i] = _hold_mode(cyclic, generic[c], opens[i], times[c, i])
             # How far the verb's effector is above its contact height (its own floor at these adverbs).
             lifts[i] = 0.0 if math.isnan(heights[i]) else free_pos[c, i, 1] - verb_floor - heights[i]
         if start:  # the verb's level from the feet that are down now, else none

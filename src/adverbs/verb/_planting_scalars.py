@@ -30,24 +30,15 @@ def spring(x0, v0, t, halflife, ln2):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def hold_mode(cyclic, g, open_, times):  # pragma: no cover - compiled
-    """``planting.hold_modes`` of one hold ``times (3,)`` at generic time ``g``: open or not, and the turn back."""
+    """``planting.hold_modes`` and ``planting.swing_lifts`` of one hold ``times (3,)`` at generic time ``g``: open or
+    not, the turn back, and how much of the least swing lift applies."""
     heel, close = times[1] - open_, times[2] - open_
     if cyclic:
         into = (g - open_) % 1.0
         inside = into < close
+        swing = 1.0 if inside or close >= 1.0 else smoothstep((1.0 - (into - close) / (1.0 - close)) / SWING_LANDING)
     else:
         into = g - open_
         inside = into >= 0.0 and (into < close or open_ + close >= 1.0 - 1e-9)
-    return inside, smoothstep((into - heel) / max(close - heel, 1e-12))
-
-
-@njit(cache=True)
-def swing_lift(cyclic, g, open_, times):  # pragma: no cover - compiled
-    """``planting.swing_lifts`` of one hold ``times (3,)`` at generic time ``g``: how much of the least swing lift applies."""
-    if not cyclic:
-        return 0.0
-    close = times[2] - open_
-    into = (g - open_) % 1.0
-    if into < close or close >= 1.0:
-        return 1.0
-    return smoothstep((1.0 - (into - close) / (1.0 - close)) / SWING_LANDING)
+        swing = 0.0  # a one-shot verb's swings have no next landing
+    return inside, smoothstep((into - heel) / max(close - heel, 1e-12)), swing
