@@ -1,35 +1,40 @@
 """The shipped reach (specs/bandai_reach.toml): the hand goes where it is asked.
 
-Goal error: the distance from the synthesized right hand at the synthesized peak keytime (the verb's
-keytime at that adverb point) to the asked goal, both in the measure's frame (the character's starting
-frame), measured as :func:`adverbs.apps.evaluate.measure_motion` measures the examples. It is checked at
-the points :func:`adverbs.apps.evaluate.obedience_points` gives: the examples, halfway between each and
-its nearest neighbour, and 25% past them (``c + 1.25 (p_i − c)``); and at takes the spec leaves out.
+Goal error: the distance from the right hand of the synthesized motion (the verb's own, goal correction
+included) at its peak keytime to the asked goal, both in the measure's frame (the character's starting
+frame), measured as the examples are (:func:`adverbs.verb.measures.measure_all`). It is checked at the
+points :func:`adverbs.apps.evaluate.obedience_points` gives: the examples, halfway between each and its
+nearest neighbour, and 25% past them (``c + 1.25 (p_i − c)``); and at takes the spec leaves out.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
 import pytest
 from conftest import BANDAI, SPECS
 
-from adverbs.apps.evaluate import measure_motion, obedience_points
+from adverbs.apps.evaluate import obedience_points
 from adverbs.verb.examples import examples_from_spec
+from adverbs.verb.measures import measure_all
 from adverbs.verb.planting import foot_drift, plant_feet
 from adverbs.verb.spec import load_spec
 
 GOAL = ("hand_x", "hand_y", "hand_z")
-# Largest goal error (metres) at each kind of point; measured: 1 mm, 7 mm and 47 mm.
+# Largest goal error (metres) at each kind of point, the issue's; measured: 1.3 mm, 1.1 mm and 34.5 mm.
 TOLERANCE = {"at examples": 0.005, "between": 0.02, "25% past": 0.05}
 
 
 def goal_errors(verb, points: np.ndarray) -> np.ndarray:
     """Distance ``(P,)`` from the synthesized hand at the peak keytime to each asked goal ``points (P, 3)``, m."""
-    return np.array(
-        [np.linalg.norm(measure_motion(verb, verb.control_points(p), verb.keytimes(p)) - p) for p in points]
-    )
+    measures = [a.measure for a in verb.adverbs]
+    errors = []
+    for p in points:
+        clip, k = verb.synthesize(p, fps=max(verb.fps, 60.0))
+        errors.append(np.linalg.norm(measure_all(clip, k, measures) - p))
+    return np.array(errors)
 
 
 @pytest.fixture(scope="module")
@@ -46,13 +51,13 @@ def errors(reach):
 
 def test_the_goals_span_low_to_high_reaches(reach):
     styles = {Path(x.source).stem.split("_")[-2] for x in reach.examples}
-    assert styles == {"elderly", "exhausted", "normal"}
-    # The examples' goals: 1.27 m (elderly) to 1.57 m (exhausted) high, 29.7 cm, and 14 cm front to back.
+    assert styles == {"elderly", "exhausted", "normal", "youthful"}
+    # The examples' goals: 1.27 m (elderly) to 1.78 m (youthful) high, 51 cm, and 27 cm front to back.
     span = np.ptp(reach.points, axis=0)
-    assert span[1] >= 0.29 and span[2] >= 0.10
-    # The goals checked below (at, between and 25% past the examples) span 37 cm in height.
+    assert span[1] >= 0.30 and span[2] >= 0.10
+    # The goals checked below (at, between and 25% past the examples) span 64 cm in height.
     checked = np.concatenate(list(obedience_points(reach).values()))
-    assert np.ptp(checked[:, 1]) >= 0.35
+    assert np.ptp(checked[:, 1]) >= 0.6
 
 
 @pytest.mark.parametrize("kind", list(TOLERANCE))
@@ -62,7 +67,7 @@ def test_the_hand_reaches_the_goal(errors, kind):
 
 def test_the_hand_reaches_the_goals_of_held_out_takes(reach):
     # The normal takes the spec leaves out (near-duplicates of kept ones), measured the way the spec's
-    # examples are: the verb asked for each one's goal puts the hand there (measured: within 4 mm).
+    # examples are: the verb asked for each one's goal puts the hand there (measured: within 1 mm).
     spec = load_spec(SPECS / "bandai_reach.toml")
     used = {Path(x["file"]).name for x in spec["examples"]}
     held = [p for p in sorted(BANDAI.glob("dataset-2_raise-up-right-hand_normal_*.bvh")) if p.name not in used]
@@ -70,18 +75,45 @@ def test_the_hand_reaches_the_goals_of_held_out_takes(reach):
     spec["examples"] = [{"name": p.stem, "file": str(p), "keytimes": {"peak": "Hand_R"}} for p in held]
     goals = np.array([x.point for x in examples_from_spec(spec)[0]])
     assert goals.shape == (6, 3)
-    assert goal_errors(reach, goals).max() <= 0.015
+    assert goal_errors(reach, goals).max() <= 0.005
+
+
+def test_without_the_goal_chain_the_blend_misses(reach):
+    # The same tables played without the correction: the youthful takes' straight arms pull the blends
+    # off (measured: 25 mm between examples, 25 cm 25% past them). The chain is what puts the hand there.
+    bare = dataclasses.replace(reach, goal_chain=())
+    assert bare.goal is None
+    points = obedience_points(reach)
+    assert goal_errors(bare, points["between"]).max() > TOLERANCE["between"]
+    assert goal_errors(bare, points["25% past"]).max() > 0.1
+
+
+def test_a_goal_out_of_reach_leaves_the_arm_at_its_nearest(reach):
+    # 3 m up and 1 m out to the side: no arm gets there. The solve ends (no runaway offset), the hand
+    # goes as far towards it as the chain allows, and the motion stays as smooth as at the examples.
+    top = reach.points[np.argmax(reach.points[:, 1])]
+    for far in ([top[0], 3.0, top[2]], [top[0] - 1.0, top[1], top[2]]):
+        clip, k = reach.synthesize(np.array(far), fps=60.0)
+        state = reach.state()
+        state.update(reach, np.array([far]))
+        assert np.all(np.isfinite(state.goal)) and np.abs(state.goal).max() < np.pi
+        hand = measure_all(clip, k, [a.measure for a in reach.adverbs])
+        plain = measure_all(*dataclasses.replace(reach, goal_chain=()).synthesize(np.array(far), fps=60.0), [a.measure for a in reach.adverbs])
+        assert np.linalg.norm(hand - far) < np.linalg.norm(plain - far)
 
 
 def test_planted_feet_leave_the_hand_where_it_was(reach):
     # At the lowest and the highest goal checked (25% past the examples), the feet are held still by
     # IK on the legs, and the hand at the peak keytime stays where the motion alone put it.
+    # Feet: within 1 mm at the lowest goal. At the highest (1.85 m, past the youthful takes) the extrapolated
+    # stance turns the right foot about its held ankle and its toe drifts 8 mm (the verb's own: 9 mm); a
+    # known limit of planting a one-shot verb's stance far outside its examples (noted on issue 8).
     past = obedience_points(reach)["25% past"]
     hand = reach.skeleton.index("Hand_R")
-    for p in past[[np.argmin(past[:, 1]), np.argmax(past[:, 1])]]:
+    for p, drift in zip(past[[np.argmin(past[:, 1]), np.argmax(past[:, 1])]], (1e-3, 0.01)):
         clip, k = reach.synthesize(p)
         planted, _ = plant_feet(reach, clip, k)
-        assert foot_drift(reach, planted, k).max() <= 1e-3
+        assert foot_drift(reach, planted, k).max() <= drift
         peak = int(round(k[1] * clip.fps))
         moved = planted.global_positions()[peak, hand] - clip.global_positions()[peak, hand]
         np.testing.assert_allclose(moved, 0.0, rtol=0, atol=0.005)

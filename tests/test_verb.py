@@ -14,6 +14,7 @@ from adverbs import AdverbsError
 from adverbs.apps.evaluate import _pose_positions, obedience
 from adverbs.verb.measures import measure
 from adverbs.verb import Verb, build_verb, dofs_reference, load_verb, save_verb
+from adverbs.verb import goal as goals
 from adverbs.verb.store import VERSION
 from adverbs.interp import timewarp
 
@@ -29,7 +30,8 @@ def test_the_three_verbs_are_what_their_specs_say(verbs):
     styled, _ = verbs["bandai_styled_walk"]
     assert styled.adverb_names == ("valence", "energy", "turn") and len(styled.examples) >= 11
     reach, _ = verbs["bandai_reach"]
-    assert reach.adverb_names == ("hand_x", "hand_y", "hand_z") and len(reach.examples) == 20 and not reach.cyclic
+    assert reach.adverb_names == ("hand_x", "hand_y", "hand_z") and len(reach.examples) == 23 and not reach.cyclic
+    assert reach.goal_chain == ("Spine", "Chest", "Shoulder_R", "UpperArm_R", "LowerArm_R")
     # Turning really is in the examples: the CMU turns span well over 100 deg/s.
     assert np.ptp(cmu.points[:, 1]) > 100 and np.ptp(styled.points[:, 2]) > 100
 
@@ -62,7 +64,12 @@ def test_batch_fast_path_and_reference_agree(verbs, name):
     assert np.abs(batch - reference).max() <= 1e-10
     for k in range(40):
         clock = float(timewarp.clock_time(t[k], verb.keytimes(p[k]), verb.generic_keytimes))
-        assert np.abs(verb.pose(p[k], clock) - batch[k]).max() <= 1e-10
+        state = verb.state()
+        want = batch[k].copy()  # the curves; a pose adds the goal's correction (the reach's arm), weighted in time
+        pose = verb.pose(p[k], clock, state)
+        if verb.goal is not None:
+            want[verb.goal.columns] += goals.weight(verb.goal, t[k]) * state.goal[0]
+        assert np.abs(pose - want).max() <= 1e-10
 
 
 @pytest.mark.parametrize("name", VERB_SPECS)

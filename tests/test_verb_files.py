@@ -312,7 +312,7 @@ FIELD_FAULTS = {
     "a missing field": (lambda m: m["skeleton"].pop("units"), "field 'skeleton.units': missing"),
     "a list for an object": (setting("encoding", []), "field 'encoding': must be an object, got a list"),
     "another format": (setting("format", "adverbs-graph"), "not an adverbs verb file"),
-    "a newer version": (setting("version", 99), "verb file version 99; this adverbs reads version 4. Rebuild it"),
+    "a newer version": (setting("version", 99), "verb file version 99; this adverbs reads version 5. Rebuild it"),
     "a version as a string": (setting("version", "4"), 'verb file version "4"'),
 }  # fmt: skip
 

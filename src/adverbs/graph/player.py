@@ -493,7 +493,7 @@ def _dofs(state: GraphState, verbs: np.ndarray, g: np.ndarray, slot: int, rows: 
         s = _sampling(state, v, slot)
         lap = np.floor(g[sel])
         local = np.clip(g[sel] - lap, 0.0, 1.0)
-        d = run_kernel(verb.segments, s.weights, s.keytimes, verb.generic_keytimes, s.seam, sel, local, GENERIC)
+        d = run_kernel(verb, s, sel, local, GENERIC)
         if verb.cyclic:  # the pose of another cycle: shifted by the seam (the velocities: see _sample)
             d[:, VELOCITIES:] += lap[:, None] * s.seam[sel, VELOCITIES:]
         out[v] = (sel, d)

@@ -18,7 +18,9 @@ VELOCITIES = 3  # the first DOF columns are the root's velocities (vx, vz, turn)
 
 
 @njit(cache=True)
-def sample_batch(segments, weights, keytimes, generic, seam, rows, times, mode, window, out, cycles):  # pragma: no cover
+def sample_batch(
+    segments, weights, keytimes, generic, seam, goal, goal_columns, goal_window, rows, times, mode, window, out, cycles
+):  # pragma: no cover
     """Write DOFs ``out (Q, D)`` and cycle indices ``cycles (Q,)`` for ``Q`` queries.
 
     segments (NumCP, E, D)  control points / 6, by control point (the verb's ``segments``)
@@ -26,11 +28,13 @@ def sample_batch(segments, weights, keytimes, generic, seam, rows, times, mode, 
     keytimes (C, N)         each creature's keytimes (read for clock times only)
     generic  (N,)           where the keytimes sit in generic time (the verb's ``generic_keytimes``)
     seam     (C, D)         each creature's seam jump ``d(1) − d(0)`` (read for cycles only)
+    goal     (C, K)         each creature's goal offset on the DOF columns ``goal_columns (K,)`` (K = 0: none)
+    goal_window (3,)        generic times the goal's weight rises from, peaks at and falls to (see :mod:`.goal`)
     rows     (Q,) int       the creature of each query
     times    (Q,)           generic times (``mode`` GENERIC) or clock times in seconds
     window   float          fraction of a cycle over which the seam is faded out
 
-    Each query's DOFs are ``Σ_k Σ_e b_k(t) w_e c_{e, seg+k} + fade · seam``: a product of its 4·E
+    Each query's DOFs are ``Σ_k Σ_e b_k(t) w_e c_{e, seg+k} + fade · seam + reach · goal``: a product of its 4·E
     blend weights with the 4·E rows of control points live at its segment. The root's velocity
     columns fade with ``fade − 3 s (1 − s)`` instead (``s`` the fraction of the window): it starts at 1
     too, so the velocities are continuous at the seam, but integrates to zero over the window, so the
@@ -43,10 +47,14 @@ def sample_batch(segments, weights, keytimes, generic, seam, rows, times, mode, 
     blend = np.empty((nq, 4))
     fades = np.empty(nq)
     vfades = np.empty(nq)
+    reach = np.zeros(nq)
+    ng = goal_columns.shape[0]
     for q in range(nq):
-        segs[q], fades[q], vfades[q], cycles[q] = _phase(
+        segs[q], fades[q], vfades[q], cycles[q], t = _phase(
             keytimes, generic, rows[q], times[q], mode, window, ncp, blend[q]
         )
+        if ng > 0:
+            reach[q] = _goal_weight(goal_window, t)
     nv = min(VELOCITIES, nd)
     if nq < GROUPED:
         for q in range(nq):
@@ -63,6 +71,9 @@ def sample_batch(segments, weights, keytimes, generic, seam, rows, times, mode, 
                 s0, s1, s2, s3 = segments[seg, e], segments[seg + 1, e], segments[seg + 2, e], segments[seg + 3, e]
                 for d in range(nd):
                     out[q, d] += a0 * s0[d] + a1 * s1[d] + a2 * s2[d] + a3 * s3[d]
+            if reach[q] != 0.0:
+                for k in range(ng):
+                    out[q, goal_columns[k]] += reach[q] * goal[c, k]
         return
     flat = np.ascontiguousarray(segments).reshape(ncp * ne, nd)
     order = np.argsort(segs, kind="mergesort")
@@ -86,12 +97,16 @@ def sample_batch(segments, weights, keytimes, generic, seam, rows, times, mode, 
             for d in range(nd):
                 f = vfades[q] if d < nv else fades[q]
                 out[q, d] = block[i, d] + f * seam[c, d] if f != 0.0 else block[i, d]
+            if reach[q] != 0.0:
+                for k in range(ng):
+                    out[q, goal_columns[k]] += reach[q] * goal[c, k]
         start = stop
 
 
 @njit(cache=True, inline="always")
 def _phase(keytimes, generic, c, clock, mode, window, ncp, blend):  # pragma: no cover
-    """B-spline segment, seam fades (pose, velocities) and cycle of one query; its basis weights (× 6) into ``blend (4,)``."""
+    """B-spline segment, seam fades (pose, velocities), cycle and generic time of one query; its basis weights (× 6)
+    into ``blend (4,)``."""
     fade = 0.0
     vfade = 0.0
     cycle = 0
@@ -125,7 +140,20 @@ def _phase(keytimes, generic, c, clock, mode, window, ncp, blend):  # pragma: no
     blend[1] = 3.0 * x3 - 6.0 * x2 + 4.0
     blend[2] = -3.0 * x3 + 3.0 * x2 + 3.0 * x + 1.0
     blend[3] = x3
-    return seg, fade, vfade, cycle
+    return seg, fade, vfade, cycle, t
+
+
+@njit(cache=True, inline="always")
+def _goal_weight(window, t):  # pragma: no cover
+    """How much of the goal offset is added at generic time ``t``: :func:`adverbs.verb.goal.weight`, for one time."""
+    a, m, b = window[0], window[1], window[2]
+    if t < m:
+        s = min(max((t - a) / (m - a), 0.0), 1.0)
+    elif b <= m:
+        s = 1.0
+    else:
+        s = min(max((b - t) / (b - m), 0.0), 1.0)
+    return s * s * (3.0 - 2.0 * s)
 
 
 @njit(cache=True)

@@ -59,6 +59,7 @@ def build_verb(
     keytime_spacing: str = "examples",
     smoothing: float | str = 0.0,
     shrinkage: float | str = 0.0,
+    goal_chain: Sequence[str] = (),
 ) -> Verb:
     """Fit B-splines to every example in generic time and set up the interpolation (§3.1, §4).
 
@@ -67,7 +68,8 @@ def build_verb(
     ground the examples walk on; ``keytime_spacing`` places the keytimes in generic time (``"examples"``:
     spaced as the examples' keytimes are on average; ``"even"``: evenly, as in the paper);
     ``smoothing`` and ``shrinkage`` make the interpolation approximate (a number ≥ 0 or ``"auto"``;
-    see :class:`~adverbs.interp.rbf.AdverbInterpolator`; 0, exact, is the default).
+    see :class:`~adverbs.interp.rbf.AdverbInterpolator`; 0, exact, is the default); ``goal_chain`` names
+    the joints that put the joint of ``joint_position`` adverbs on its goal (see :mod:`adverbs.verb.goal`).
     """
     if len(examples) < 1:
         raise AdverbsError(f"verb {name!r}: needs at least one example")
@@ -158,6 +160,7 @@ def build_verb(
         shrinkage,
         holds,
         hold_table,
+        tuple(goal_chain),
     )
 
 
@@ -225,6 +228,7 @@ def build_with_examples(path: str | Path) -> tuple[Verb, list[Example]]:
             spec["keytime_spacing"],
             spec["smoothing"],
             spec["shrinkage"],
+            spec["goal_chain"],
         )
         return verb, examples
     except SpecError:
@@ -237,6 +241,8 @@ def build_with_examples(path: str | Path) -> tuple[Verb, list[Example]]:
             field = "constraints"
         elif "num_cp" in text:
             field = "num_cp"
+        elif text.startswith(f"verb {spec['name']!r}: goal:"):
+            field = "goal.chain"
         elif "shrinkage" in text:
             field = "shrinkage"
         elif "smoothing" in text:

@@ -14,7 +14,9 @@ caller owns → DOFs ``(C, D)``. One creature is ``C = 1``. For each creature:
 4. from the second cycle on, the jump ``δ = d(1) − d(0)`` where a captured cycle does not end where it
    began is added and faded out over the first quarter of the cycle (smoothstep; for the root's
    velocities a fade that integrates to zero, so the blend adds no distance or turn), so the motion is
-   continuous from cycle to cycle.
+   continuous from cycle to cycle;
+5. a verb with a goal (:mod:`.goal`) adds each creature's offset on its goal chain, solved when its adverb
+   point changes, weighted by the goal's smoothstep window in generic time.
 
 Steps 2–4 are a compiled loop (:mod:`._sampling_kernel`); :func:`sample_reference` is the same
 mathematics written out with explicit coefficients (eq. 3), the time warp and the spline, as the
@@ -34,6 +36,7 @@ import numpy as np
 
 from ..errors import AdverbsError
 from ..interp import bspline, timewarp
+from . import goal as goals
 from ._sampling_kernel import CYCLE_EPS, CYCLIC, GENERIC, ONE_SHOT, VELOCITIES, refresh_batch, sample_batch
 
 if TYPE_CHECKING:
@@ -59,6 +62,8 @@ class SamplingState:
         Keytimes ``K(p)``, seconds.
     seam : (C, D)
         The seam jump ``d(1) − d(0)`` at ``points`` (cyclic verbs; zero for one-shot ones).
+    goal : (C, K)
+        The offset on the verb's goal chain (its ``goal.columns``) at ``points``; ``K = 0`` without a goal.
     cycle : (C,) int
         The cycle each creature was in at its last sample (0 for the first).
     root : (C, 3)
@@ -72,6 +77,7 @@ class SamplingState:
     weights: np.ndarray
     keytimes: np.ndarray
     seam: np.ndarray
+    goal: np.ndarray
     cycle: np.ndarray
     root: np.ndarray
     verb: Verb
@@ -95,6 +101,7 @@ class SamplingState:
             np.zeros((c, e)),
             np.tile(verb.keytimes_table[0], (c, 1)),
             np.zeros((c, verb.num_dofs)),
+            np.zeros((c, 0 if verb.goal is None else len(verb.goal.columns))),
             np.zeros(c, dtype=np.int64),
             start,
             verb,
@@ -134,6 +141,8 @@ class SamplingState:
             self.points, changed, *verb.interpolator.kernel_tables, verb.log_intervals, verb.seam_table[:, :d],
             self.weights, self.keytimes, self.seam[:, :d],
         )  # fmt: skip
+        if verb.goal is not None:
+            self.goal[changed] = goals.solve(verb, verb.goal, self.weights[changed], self.keytimes[changed], p)
         return True
 
 
@@ -143,25 +152,32 @@ def mode(verb: Verb) -> int:
 
 
 def run_kernel(
-    segments: np.ndarray,
-    weights: np.ndarray,
-    keytimes: np.ndarray,
-    generic: np.ndarray,
-    seam: np.ndarray,
+    verb: Verb,
+    state: SamplingState,
     rows: np.ndarray,
     times: np.ndarray,
     kind: int,
     cycles: np.ndarray | None = None,
 ) -> np.ndarray:
-    """DOFs ``(Q, D)`` from the compiled kernel (see :mod:`._sampling_kernel` for the arguments).
+    """DOFs ``(Q, D)`` of ``verb`` from the compiled kernel for the creatures ``rows (Q,)`` of an up-to-date
+    ``state`` at ``times (Q,)`` (see :mod:`._sampling_kernel`: ``kind`` says what the times are).
 
     Each query's cycle index is written into ``cycles (Q,)`` when it is given.
     """
     rows = np.ascontiguousarray(rows, dtype=np.int64)
-    out = np.empty((len(rows), segments.shape[2]))
+    out = np.empty((len(rows), verb.num_dofs))
     cycles = np.empty(len(rows), dtype=np.int64) if cycles is None else cycles
-    sample_batch(segments, weights, keytimes, generic, seam, rows, np.ascontiguousarray(times, dtype=float), kind, SEAM_BLEND, out, cycles)
+    g = verb.goal
+    columns, window = (_NO_COLUMNS, _NO_WINDOW) if g is None else (g.columns, g.window)
+    sample_batch(
+        verb.segments, state.weights, state.keytimes, verb.generic_keytimes, state.seam, state.goal, columns, window,
+        rows, np.ascontiguousarray(times, dtype=float), kind, SEAM_BLEND, out, cycles,
+    )  # fmt: skip
     return out
+
+
+_NO_COLUMNS = np.zeros(0, dtype=np.int64)
+_NO_WINDOW = np.zeros(3)
 
 
 def _sample_state(verb: Verb, points: np.ndarray, clocks: np.ndarray, state: SamplingState | None) -> tuple[np.ndarray, SamplingState]:
@@ -170,11 +186,7 @@ def _sample_state(verb: Verb, points: np.ndarray, clocks: np.ndarray, state: Sam
         state = SamplingState.new(verb, len(points))
     state.check(verb, len(points))
     state.update(verb, points)
-    out = run_kernel(
-        verb.segments, state.weights, state.keytimes, verb.generic_keytimes, state.seam, np.arange(len(points)), clocks,
-        mode(verb), state.cycle,
-    )  # fmt: skip
-    return out, state
+    return run_kernel(verb, state, np.arange(len(points)), clocks, mode(verb), state.cycle), state
 
 
 def sample(
@@ -222,13 +234,12 @@ def clocks_dofs(verb: Verb, state: SamplingState, rows: np.ndarray, clocks: np.n
     The kernel's many-queries form, for one creature at many times (a whole clip) or any mix; the
     state's cache is read, not changed (its ``cycle`` is left as it was).
     """
-    return run_kernel(
-        verb.segments, state.weights, state.keytimes, verb.generic_keytimes, state.seam, rows, clocks, mode(verb)
-    )
+    return run_kernel(verb, state, rows, clocks, mode(verb))
 
 
 def dofs(verb: Verb, p: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """DOFs ``(Q, D)`` at adverb points ``p (Q, A)`` and *generic* times ``t (Q,)`` in ``[0, 1]``: no cycles, no seam.
+    """DOFs ``(Q, D)`` at adverb points ``p (Q, A)`` and *generic* times ``t (Q,)`` in ``[0, 1]``: the interpolated
+    curves alone (no cycles, no seam, no goal correction).
 
     The kernel run on generic times; weights of many points are computed in blocks.
     """
@@ -253,9 +264,10 @@ def dofs(verb: Verb, p: np.ndarray, t: np.ndarray) -> np.ndarray:
             p[a : a + CHUNK], rows, *verb.interpolator.kernel_tables, no_keytimes, no_seam,
             w, np.empty((len(rows), 1)), np.empty((len(rows), 0)),
         )  # fmt: skip
-        out[a : a + CHUNK] = run_kernel(
-            verb.segments, w, no_keytimes, verb.generic_keytimes, no_seam, rows, t[a : a + CHUNK], GENERIC
-        )
+        sample_batch(
+            verb.segments, w, no_keytimes, verb.generic_keytimes, no_seam, no_seam, _NO_COLUMNS, _NO_WINDOW, rows,
+            t[a : a + CHUNK], GENERIC, SEAM_BLEND, out[a : a + CHUNK], np.empty(len(rows), dtype=np.int64),
+        )  # fmt: skip
     return out
 
 
@@ -277,7 +289,8 @@ def sample_reference(verb: Verb, points: np.ndarray, clocks: np.ndarray) -> np.n
 
     Every control point and log keytime interval by eq. 3 with explicit linear and radial
     coefficients, the cycle and the time warp with :mod:`~adverbs.interp.timewarp`, the spline with
-    :func:`~adverbs.interp.bspline.evaluate`, the seam from the spline's end values.
+    :func:`~adverbs.interp.bspline.evaluate`, the seam from the spline's end values, the goal's offset from
+    :func:`~adverbs.verb.goal.solve` (on these keytimes) weighted by :func:`~adverbs.verb.goal.weight`.
     """
     ip = verb.interpolator
     coef = ip.fit(verb.coefficients)
@@ -290,7 +303,11 @@ def sample_reference(verb: Verb, points: np.ndarray, clocks: np.ndarray) -> np.n
         end = k[-1]
         cycle = max(math.ceil(clock / end - CYCLE_EPS) - 1, 0) if verb.cyclic else 0
         local = min(max(clock - cycle * end, 0.0), end)
-        d = bspline.evaluate(cp, timewarp.generic_time(np.array(local), k, verb.generic_keytimes))
+        t = timewarp.generic_time(np.array(local), k, verb.generic_keytimes)
+        d = bspline.evaluate(cp, t)
+        if verb.goal is not None:
+            offset = goals.solve(verb, verb.goal, ip.weights(p)[None], k[None], p[None])[0]
+            d[verb.goal.columns] += goals.weight(verb.goal, t) * offset
         if cycle > 0:
             v0, _, v1, _ = bspline.ends(cp)
             s = min(local / (SEAM_BLEND * end), 1.0)

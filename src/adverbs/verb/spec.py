@@ -11,6 +11,8 @@ fps = 30                      # optional: resample every example to this rate (n
 keytime_spacing = "examples"  # keytimes in generic time spaced as the examples' are; "even": the paper's
 smoothing = 0                 # interpolation: 0 exact (the paper's); a number or "auto" to approximate
 shrinkage = 0                 # shrink the linear part's slopes: 0 (default), a number or "auto"
+goal = { chain = ["Chest", "UpperArm_R", "LowerArm_R"] }  # optional: IK puts the joint_position adverbs'
+                              # joint on the asked goal at their keytime (see adverbs.verb.goal)
 
 [[adverbs]]
 name = "turn"
@@ -76,6 +78,7 @@ _TOP = {
     "keytime_spacing",
     "smoothing",
     "shrinkage",
+    "goal",
 }
 _ADVERB = {"name", "unit", "measure", "description"}
 _EXAMPLE = {"name", "file", "cut", "frames", "keytimes", "mirror", "adverbs", "refine", "description"}
@@ -264,6 +267,13 @@ def load_spec(path: str | Path) -> dict[str, Any]:
         if v != "auto" and not (_number(v) and v >= 0):
             raise SpecError(path, f'must be a number ≥ 0 or "auto", got {_show(v)}', field=key)
         rules[key] = v if v == "auto" else float(v)
+    goal = raw.get("goal", {})
+    if not isinstance(goal, dict):
+        raise SpecError(path, f"must be a table {{ chain = [joint names] }}, got {_show(goal)}", field="goal")
+    _unknown(path, goal, {"chain"}, None, "goal")
+    chain = goal.get("chain", [])
+    if not isinstance(chain, list) or not all(isinstance(j, str) for j in chain) or (goal and not chain):
+        raise SpecError(path, f"must be a list of one or more joint names, got {_show(chain)}", field="goal.chain")
     constraints = raw.get("constraints", "auto")
     if constraints != "auto":
         if not isinstance(constraints, list):
@@ -293,6 +303,7 @@ def load_spec(path: str | Path) -> dict[str, Any]:
         "keytime_spacing": spacing,
         "smoothing": rules["smoothing"],
         "shrinkage": rules["shrinkage"],
+        "goal_chain": tuple(chain),
         "encoding": encoding,
         "num_cp": num_cp,
         "cyclic": cyclic,

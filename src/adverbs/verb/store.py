@@ -41,8 +41,8 @@ from .measures import check_measure
 from .synthesis import LONGEST_CYCLE, MAX_FPS
 from .tables import Adverb, ExampleRecord, Verb
 
-FORMAT = "adverbs-verb"  # 2 added keytime names, constraints, floor; 3 generic keytimes, smoothing; 4 holds
-VERSION = 4
+FORMAT = "adverbs-verb"  # 2 added keytime names, constraints, floor; 3 generic keytimes, smoothing; 4 holds; 5 goal
+VERSION = 5
 
 # The arrays of a verb file: member name (without ".npy") → (element kind, number of axes).
 ARRAYS = {
@@ -70,7 +70,7 @@ JSON_SHARE = 256  # verb.json may take 1/256 of the memory limit: parsed, JSON t
 
 _FIELDS = {
     "format", "version", "name", "cyclic", "fps", "num_cp", "keytime_names", "constraints", "holds", "floor",
-    "smoothing", "shrinkage", "adverbs", "examples", "encoding", "skeleton",
+    "smoothing", "shrinkage", "goal_chain", "adverbs", "examples", "encoding", "skeleton",
 }  # fmt: skip
 _ZIP_ERRORS = (zipfile.BadZipFile, zlib.error, EOFError, OSError, ValueError, NotImplementedError, RuntimeError, struct.error)  # fmt: skip
 
@@ -111,6 +111,7 @@ def save_verb(verb: Verb, path: str | Path) -> None:
         "floor": verb.floor,
         "smoothing": verb.smoothing,
         "shrinkage": verb.shrinkage,
+        "goal_chain": list(verb.goal_chain),
         "adverbs": [{"name": a.name, "unit": a.unit, "measure": a.measure} for a in verb.adverbs],
         "examples": [
             {
@@ -526,6 +527,7 @@ class _Reader:
         floor = self.number(meta["floor"], "floor")
         smoothing = self.number(meta["smoothing"], "smoothing", lambda x: x >= 0, "a finite number ≥ 0")
         shrinkage = self.number(meta["shrinkage"], "shrinkage", lambda x: x >= 0, "a finite number ≥ 0")
+        goal_chain = self.names(meta["goal_chain"], "goal_chain")
 
         examples = self.items(meta["examples"], "examples")
         adverbs = self.items(meta["adverbs"], "adverbs")
@@ -579,9 +581,9 @@ class _Reader:
         )
         try:
             return Verb(name, enc, adverb_list, records, points, keytimes, coefficients, cyclic, fps, keytime_names,
-                        constraints, floor, generic, smoothing, shrinkage, holds, hold_table)  # fmt: skip
-        except AdverbsError as err:  # what only the verb can check: distinct example points
-            raise VerbFileError(self.path, str(err)) from None
+                        constraints, floor, generic, smoothing, shrinkage, holds, hold_table, goal_chain)  # fmt: skip
+        except AdverbsError as err:  # what only the verb can check: distinct example points, the goal's joints
+            raise VerbFileError(self.path, str(err), field="goal_chain" if ": goal:" in str(err) else None) from None
 
     def skeleton(self, value: Any) -> Skeleton:
         sk = self.table(value, "skeleton", {"names", "channels", "unit_scale", "units"})

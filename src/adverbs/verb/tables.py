@@ -38,6 +38,8 @@ from ..motion.clip import Clip
 from ..motion.encoding import DofEncoding
 from . import sampling, synthesis
 from .constraints import Constraint, Hold, check_constraint, default_holds
+from . import goal as goals
+from .goal import Goal
 
 
 @dataclass(frozen=True)
@@ -109,11 +111,14 @@ class Verb:
     smoothing, shrinkage : the interpolation's smoothing λ and slope shrinkage μ (0: exact, the
         paper's; ``"auto"``: chosen by leave-one-out on the verb's own tables, then kept as numbers;
         see :class:`~adverbs.interp.rbf.AdverbInterpolator`)
+    goal_chain : joints whose rotations put the joint of the verb's ``joint_position`` adverbs on the
+        asked goal at their keytime (empty: no goal correction; see :mod:`adverbs.verb.goal`)
 
     Derived tables (computed once): ``interpolator`` (cardinal weights), ``log_intervals (E, N-1)``,
     ``segments (NumCP, E, D)`` (the coefficients by control point, with the B-spline basis's 1/6
-    folded in: what the sampling kernel reads) and ``seam_table (E, D)`` (each example's end value
-    minus its start value, ``d(1) − d(0)``: the jump hidden where a cycle follows itself).
+    folded in: what the sampling kernel reads), ``seam_table (E, D)`` (each example's end value
+    minus its start value, ``d(1) − d(0)``: the jump hidden where a cycle follows itself) and ``goal``
+    (the :class:`~adverbs.verb.goal.Goal` of ``goal_chain``, or None).
     """
 
     name: str
@@ -133,10 +138,13 @@ class Verb:
     shrinkage: float | str = 0.0
     holds: tuple[Hold, ...] = ()
     hold_table: np.ndarray | None = None
+    goal_chain: tuple[str, ...] = ()
     interpolator: AdverbInterpolator = field(init=False, repr=False)
     log_intervals: np.ndarray = field(init=False, repr=False)
     segments: np.ndarray = field(init=False, repr=False)
     seam_table: np.ndarray = field(init=False, repr=False)
+    goal: Goal | None = field(init=False, repr=False)
+    goal_misses: np.ndarray | None = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         name, enc = self.name, self.encoding
@@ -195,6 +203,15 @@ class Verb:
         put(self, "segments", _frozen(coef.transpose(1, 0, 2) / 6.0))
         v0, _, v1, _ = bspline.ends(coef.transpose(1, 0, 2))
         put(self, "seam_table", _frozen(v1 - v0))
+        put(self, "goal_chain", tuple(self.goal_chain))
+        goal = None
+        if self.goal_chain:
+            try:
+                goal = Goal.build(self.goal_chain, self.adverbs, enc, self.generic_keytimes, self.cyclic)
+            except AdverbsError as e:
+                raise AdverbsError(f"verb {name!r}: {e}") from None
+        put(self, "goal", goal)
+        put(self, "goal_misses", None if goal is None else _frozen(goals.misses(self)))
 
     def __repr__(self) -> str:
         kind = "cyclic" if self.cyclic else "one-shot"
@@ -323,7 +340,7 @@ class Verb:
         another interpolator's prediction at adverb point ``p``, played by everything a verb is played by.
 
         Its encoding, constraints and holds are this verb's (the holds' times those at ``p``); its one example
-        stands at ``p`` (default: the examples' mean).
+        stands at ``p`` (default: the examples' mean). It has no goal chain: the curves are played as given.
         """
         p = self.point(self.points.mean(axis=0) if p is None else p)
         cp, k = np.asarray(control_points, dtype=float), np.asarray(keytimes, dtype=float)
@@ -334,7 +351,7 @@ class Verb:
         name = name or self.name
         return dataclasses.replace(
             self, name=name, examples=(ExampleRecord(name, "", ""),), points=p[None], keytimes_table=k[None],
-            coefficients=cp[None], hold_table=spans[None], smoothing=0.0, shrinkage=0.0,
+            coefficients=cp[None], hold_table=spans[None], smoothing=0.0, shrinkage=0.0, goal_chain=(),
         )  # fmt: skip
 
     def duration(self, p: np.ndarray) -> float:
