@@ -8,6 +8,7 @@ import pytest
 from conftest import BANDAI, CMU, SPECS
 
 from adverbs.verb.fit import build_from_spec
+from adverbs.verb.measures import measure_all
 from adverbs.verb.spec import SpecError, load_spec
 
 HEAD = """
@@ -286,3 +287,58 @@ def test_examples_at_different_frame_rates(tmp_path):
     )
     verb = build_from_spec(path)
     assert verb.fps == 30 and verb.examples[1].fit_error < 0.05
+
+
+REACH_HEAD = """
+name = "test-reach"
+cyclic = false
+num_cp = 12
+{goal}
+
+[[adverbs]]
+name = "hand_y"
+measure = {{ kind = "joint_position", joint = "Hand_R", axis = "y", keytime = {keytime} }}
+"""
+
+
+def reach_spec(tmp_path, goal, keytime=1):
+    files = [BANDAI / f"dataset-2_raise-up-right-hand_{s}_001.bvh" for s in ("elderly", "youthful")]
+    examples = [example(f.stem, f, 'keytimes = { peak = "Hand_R" }') for f in files]
+    return spec(tmp_path, *examples, head=REACH_HEAD.format(goal=goal, keytime=keytime))
+
+
+@pytest.mark.parametrize(
+    "goal, keytime, field, reason",
+    [
+        ('goal = { chain = ["Chest", "Elbow_R"] }', 1, "goal.chain", "chain names joint 'Elbow_R', which the skeleton does not have"),
+        ('goal = { chain = ["UpperLeg_R"] }', 1, "goal.chain", "chain joint 'UpperLeg_R' is not between the body root 'Hips' and the goal's joint 'Hand_R'"),
+        ('goal = { chain = ["Hips", "Chest"] }', 1, "goal.chain", "chain joint 'Hips' is not between"),
+        ('goal = { chain = ["Chest"] }', 0, "goal.chain", "the goal is at keytime 0"),
+        ('goal = { chain = [] }', 1, "goal.chain", "must be a list of one or more joint names"),
+        ('goal = { chain = "Chest" }', 1, "goal.chain", "must be a list of one or more joint names"),
+        ('goal = { arm = ["Chest"] }', 1, "goal.arm", "unknown field"),
+        ('goal = "Chest"', 1, "goal", "must be a table"),
+    ],
+)
+def test_a_bad_goal_chain_is_named(tmp_path, goal, keytime, field, reason):
+    fails(reach_spec(tmp_path, goal, keytime), None, field, reason)
+
+
+def test_a_goal_needs_joint_position_adverbs(tmp_path):
+    head = HEAD.replace('cut = { foot = "left", steps = 2 }', 'cut = { foot = "left", steps = 2 }\ngoal = { chain = ["lhumerus"] }')
+    path = spec(tmp_path, example("a", WALK, "adverbs = { mood = 0 }"), example("b", FAST, "adverbs = { mood = 1 }"), head=head)
+    fails(path, None, "goal.chain", "a goal chain needs adverbs measured as a joint's position")
+
+
+def test_a_goal_chain_puts_the_hand_on_the_goal(tmp_path):
+    # Two takes only (elderly and youthful, hands at 1.27 and 1.78 m): halfway, the plain blend misses the
+    # goal; with the arm and chest as the chain, the hand is on it.
+    plain = build_from_spec(reach_spec(tmp_path, ""))
+    chain = build_from_spec(reach_spec(tmp_path, 'goal = { chain = ["Chest", "Shoulder_R", "UpperArm_R", "LowerArm_R"] }'))
+    assert plain.goal is None and chain.goal is not None
+    mid = plain.points.mean(axis=0)
+    errors = []
+    for verb in (plain, chain):
+        clip, k = verb.synthesize(mid, fps=60.0)
+        errors.append(abs(measure_all(clip, k, [verb.adverbs[0].measure])[0] - mid[0]))
+    assert errors[0] > 0.01 and errors[1] <= 0.002, errors

@@ -420,7 +420,7 @@ def damaged(data: bytes, members: dict[str, bytes], damage) -> bytes:
         return data[:at] + args[1] + data[at:]
     if kind == "json":  # a value replaced (or deleted) inside verb.json, re-zipped so it gets past the zip layer
         meta = json.loads(members["verb.json"])
-        places = sorted(_places(meta), key=repr)[1:]
+        places = sorted((p for p in _places(meta) if p), key=repr)  # every place but the whole file
         place = places[args[0] % len(places)]
         parent = meta
         for k in place[:-1]:

@@ -148,6 +148,12 @@ def measure_motion(verb: Verb, control_points: np.ndarray, keytimes: np.ndarray)
     return measure_all(clip, k, [verb.adverbs[i].measure for i in _measured(verb)])
 
 
+def measure_point(verb: Verb, p: np.ndarray) -> np.ndarray:
+    """Measured adverb values ``(M,)`` of one cycle of the verb itself at ``p`` (its goal correction included)."""
+    clip, k = verb.synthesize(p, fps=max(verb.fps, 60.0))
+    return measure_all(clip, k, [verb.adverbs[i].measure for i in _measured(verb)])
+
+
 def _pose_positions(verb: Verb, control_points: np.ndarray) -> np.ndarray:
     """Joint positions ``(S, J', 3)`` in the heading frame at evenly spaced generic times."""
     enc = verb.encoding
@@ -303,9 +309,7 @@ def obedience(verb: Verb) -> dict[str, np.ndarray]:
     ranges = _ranges(verb.points)[measured]
     out = {}
     for kind, pts in obedience_points(verb).items():
-        errs = [
-            np.abs(measure_motion(verb, verb.control_points(p), verb.keytimes(p)) - p[measured]) / ranges for p in pts
-        ]
+        errs = [np.abs(measure_point(verb, p) - p[measured]) / ranges for p in pts]
         out[kind] = 100.0 * np.max(errs, axis=0)
     return out
 

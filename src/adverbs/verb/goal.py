@@ -101,7 +101,7 @@ class Goal:
         k = int(first.measure["keytime"])
         if k == 0:
             raise AdverbsError(
-                f"goal: the goal is at keytime 0, where the character's frame is taken; put it at a later keytime"
+                "goal: the goal is at keytime 0, where the character's frame is taken; put it at a later keytime"
             )
         if cyclic and k == n - 1:
             raise AdverbsError(f"goal: keytime {k} ends the cycle (it is keytime 0 of the next); use keytime 0..{n - 2}")
@@ -237,11 +237,24 @@ def solve(verb, goal: Goal, weights: np.ndarray, keytimes: np.ndarray, points: n
     ``weights (R, E)`` and ``keytimes (R, N)`` are those of the points (from the sampling state). The aim is
     the asked goal plus the examples' own :func:`misses` blended by ``weights``: zero offset at the examples.
     """
+    k = len(goal.columns)
+    whole = np.zeros((len(points), k))
+    # Points so far out that the motion degenerates (keytimes that overflow or collapse) get no offset: the
+    # synthesis refuses them, and a run-time creature must not be stopped by them.
+    with np.errstate(all="ignore"):
+        sane = np.all(np.isfinite(keytimes), axis=1) & np.all(np.diff(keytimes, axis=1) > 0, axis=1)
+        sane &= np.all(np.isfinite(weights), axis=1) & (keytimes[:, -1] <= 1e6)
+        if sane.any():
+            whole[sane] = _solve(verb, goal, weights[sane], keytimes[sane], np.asarray(points, dtype=float)[sane])
+    whole[~np.isfinite(whole).all(axis=1)] = 0.0
+    return whole
+
+
+def _solve(verb, goal: Goal, weights: np.ndarray, keytimes: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """:func:`solve` for points whose motion has not degenerated."""
     r = len(points)
     k = len(goal.columns)
     out = np.zeros((r, k))
-    if r == 0:
-        return out
     model = _Model(verb, goal, weights, keytimes)
     target = np.asarray(points, dtype=float)[:, list(goal.adverbs)] + weights @ verb.goal_misses
     res = target - model.reached(np.arange(r), out)[0]
