@@ -144,8 +144,7 @@ def _measured(verb: Verb) -> list[int]:
 def measure_motion(verb: Verb, control_points: np.ndarray, keytimes: np.ndarray) -> np.ndarray:
     """Measured adverb values ``(M,)`` of one cycle rendered from control points and keytimes."""
     one = verb.playing(control_points, keytimes)
-    clip, k = one.synthesize(one.points[0], fps=max(verb.fps, 60.0))
-    return measure_all(clip, k, [verb.adverbs[i].measure for i in _measured(verb)])
+    return measure_point(one, one.points[0])
 
 
 def measure_point(verb: Verb, p: np.ndarray) -> np.ndarray:

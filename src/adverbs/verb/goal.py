@@ -167,6 +167,7 @@ class _Model:
         weights = np.ascontiguousarray(weights, dtype=float)
         keytimes = np.ascontiguousarray(keytimes, dtype=float)
         d = np.empty((r, STEPS + 1, verb.num_dofs))
+        self.root = np.empty((r, 3))  # the body root at the keytime
         no_seam, no_columns, rows = np.zeros((r, 0)), np.zeros(0, dtype=np.int64), np.empty(STEPS + 1, dtype=np.int64)
         for i in range(r):  # one creature at a time (fewer queries than the kernel groups): a batch gives what one does
             rows[:] = i
@@ -174,11 +175,7 @@ class _Model:
                 verb.segments, weights, keytimes, verb.generic_keytimes, no_seam, no_seam, no_columns, goal.window,
                 rows, keytimes[i, goal.keytime] * grid, ONE_SHOT, 0.0, d[i], np.empty(STEPS + 1, np.int64),
             )  # fmt: skip
-        dt = keytimes[:, goal.keytime, None] / STEPS
-        h = np.concatenate([np.zeros((r, 1)), np.cumsum(d[:, :-1, 2] * dt, axis=1)], axis=1)
-        v = np.stack([d[:, :-1, 0], np.zeros((r, STEPS)), d[:, :-1, 1]], axis=-1)
-        xz = np.sum(quat.rotate(quat.about_y(0.5 * (h[:, 1:] + h[:, :-1])), v) * dt[..., None], axis=1)
-        self.root = np.stack([xz[:, 0], xz[:, 2], h[:, -1]], axis=-1)  # the body root at the keytime
+            self.root[i] = enc.root_path(d[i], STEPS / keytimes[i, goal.keytime])[-1]
         rot0, trans0 = enc.decode_pose(d[:, 0], np.zeros((r, 3)))
         gpos0, grot0 = forward_kinematics(self.parents, rot0, trans0)
         body = enc.body_root
