@@ -27,6 +27,7 @@ def test_build_describe_synth_evaluate(tmp_path):
     assert d["adverbs"][0]["unit"] == "m/s" and d["adverbs"][1]["unit"] == "deg/s"
     assert len(d["examples"]) == 12 and set(d["examples"][0]["adverbs"]) == {"speed", "turn"}
     assert d["num_keytimes"] == 3 and d["num_cp"] == 16 and d["dofs"] > 50
+    assert (d["smoothing"], d["shrinkage"], d["timing"], d["goal_chain"]) == (0.0, 0.0, "extrapolate", [])
     assert run("describe", verb).stdout.startswith("verb cmu-walk: cyclic, 12 examples")
 
     out = tmp_path / "walk.bvh"

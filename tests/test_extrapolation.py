@@ -65,6 +65,19 @@ def test_no_adverb_value_runs_away(verbs, name):
                 assert planted.num_frames == clip.num_frames
 
 
+def test_clamped_timing_still_refuses_a_blend_that_runs_away(verbs):
+    # The reach's keytime intervals stay within its takes' (timing = "clamp"), so no point makes its motion too
+    # long or too short; a point whose blend weights run away is refused for that, before any sampling.
+    verb, _ = verbs["bandai_reach"]
+    p = verb.points.mean(axis=0)
+    p[1] = 1e300
+    assert np.all(np.isfinite(verb.keytimes(p)))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", AdverbsWarning)
+        with pytest.raises(AdverbsError, match=r"hand_y=1e\+300.*degenerates there \(its blend weights the examples"):
+            verb.synthesize(p)
+
+
 def test_cli_warns_clamps_and_refuses(tmp_path):
     from conftest import SPECS
 

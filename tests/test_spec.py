@@ -203,7 +203,7 @@ def test_the_shipped_specs_parse_and_name_shipped_files():
 
 
 def test_smoothing_and_spacing_mistakes(tmp_path):
-    for key, value in [("smoothing", "-1"), ("smoothing", '"lots"'), ("shrinkage", "nan"), ("keytime_spacing", '"odd"')]:
+    for key, value in [("smoothing", "-1"), ("smoothing", '"lots"'), ("shrinkage", "nan"), ("keytime_spacing", '"odd"'), ("timing", '"slow"'), ("timing", "1")]:
         path = spec(
             tmp_path,
             example("a", WALK, "adverbs = { mood = 0 }"),

@@ -308,11 +308,12 @@ FIELD_FAULTS = {
     "examples twice": (setting("examples", 3, "name", "walk"), "field 'examples[3].name': 'walk' is listed twice"),
     "only refinements": (lambda m: [x.update(refine=True) for x in m["examples"]], "field 'examples': every example is a refinement"),
     "one example too many": (lambda m: m["examples"].append(dict(m["examples"][0], name="13th")), "member 'points.npy': has shape (12, 2), must be (13, 2)"),
+    "an unknown timing": (setting("timing", "slow"), "field 'timing': must be one of 'extrapolate', 'clamp', got \"slow\""),
     "an unknown field": (setting("colour", "red"), "field 'colour': not a field of a verb file"),
     "a missing field": (lambda m: m["skeleton"].pop("units"), "field 'skeleton.units': missing"),
     "a list for an object": (setting("encoding", []), "field 'encoding': must be an object, got a list"),
     "another format": (setting("format", "adverbs-graph"), "not an adverbs verb file"),
-    "a newer version": (setting("version", 99), "verb file version 99; this adverbs reads version 5. Rebuild it"),
+    "a newer version": (setting("version", 99), "verb file version 99; this adverbs reads version 6. Rebuild it"),
     "a version as a string": (setting("version", "4"), 'verb file version "4"'),
 }  # fmt: skip
 

@@ -353,6 +353,10 @@ def describe(verb: Verb) -> dict:
         "holds": [h.to_dict() for h in verb.holds],
         "floor": verb.floor,
         "fps": verb.fps,
+        "smoothing": verb.smoothing,
+        "shrinkage": verb.shrinkage,
+        "timing": verb.timing,
+        "goal_chain": list(verb.goal_chain),
         "skeleton": {"joints": list(verb.skeleton.names), "units": verb.skeleton.units},
         "adverbs": [
             {"name": a.name, "unit": a.unit, "measure": a.measure, "min": float(lo[i]), "max": float(hi[i])}
@@ -378,6 +382,12 @@ def _print_describe(d: dict) -> None:
     print(f"verb {d['name']}: {kind}, {len(d['examples'])} examples, {len(d['adverbs'])} adverbs")
     print(f"  {d['dofs']} DOFs ({d['encoding']}), NumCP {d['num_cp']}, {d['fps']:g} fps")
     print(f"  keytimes: {', '.join(d['keytime_names'])}")
+    exact = d["smoothing"] == 0 and d["shrinkage"] == 0
+    how = "exact" if exact else f"smoothing {d['smoothing']:g}, shrinkage {d['shrinkage']:g}"
+    timing = "extrapolated" if d["timing"] == "extrapolate" else "clamped to the examples' own"
+    print(f"  interpolation: {how}; past the examples, keytime intervals {timing}")
+    if d["goal_chain"]:
+        print(f"  goal chain: {', '.join(d['goal_chain'])}")
     names = d["keytime_names"]
     for c, h in zip(d["constraints"], d["holds"]):
         print(

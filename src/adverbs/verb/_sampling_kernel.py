@@ -158,13 +158,14 @@ def _goal_weight(window, t):  # pragma: no cover
 
 @njit(cache=True)
 def refresh_batch(
-    points, rows, centre, inv_scale, example_q, inv_alpha, radial_from_values, lin_pinv, log_intervals, seam_table,
-    weights, keytimes, seam,
+    points, rows, centre, inv_scale, example_q, inv_alpha, radial_from_values, lin_pinv, log_intervals,
+    interval_bounds, seam_table, weights, keytimes, seam,
 ):  # pragma: no cover  # fmt: skip
     """Cardinal weights, keytimes and seam jump of the creatures ``rows (R,)`` at adverb points ``points (C, A)``.
 
     ``w(p) = R(p) M⁻¹ (I − A A⁺) + A(p) A⁺`` (see :mod:`adverbs.interp.rbf`), the keytimes from the
-    log intervals ``K_{m+1} − K_m = exp(w · log ΔK)`` and the seam ``w · (d(1) − d(0))``; written into
+    log intervals ``K_{m+1} − K_m = exp(w · log ΔK)`` (each log interval clipped to ``interval_bounds (2, N-1)``)
+    and the seam ``w · (d(1) − d(0))``; written into
     ``weights (C, E)``, ``keytimes (C, N)`` and ``seam (C, D)`` at those rows.
     """
     ne, na = example_q.shape
@@ -201,6 +202,7 @@ def refresh_batch(
             s = 0.0
             for e in range(ne):
                 s += w[e] * log_intervals[e, m]
+            s = min(max(s, interval_bounds[0, m]), interval_bounds[1, m])
             keytimes[c, m + 1] = keytimes[c, m] + math.exp(s)
         for d in range(nd):
             seam[c, d] = 0.0

@@ -60,6 +60,7 @@ def build_verb(
     smoothing: float | str = 0.0,
     shrinkage: float | str = 0.0,
     goal_chain: Sequence[str] = (),
+    timing: str = "extrapolate",
 ) -> Verb:
     """Fit B-splines to every example in generic time and set up the interpolation (§3.1, §4).
 
@@ -69,7 +70,9 @@ def build_verb(
     spaced as the examples' keytimes are on average; ``"even"``: evenly, as in the paper);
     ``smoothing`` and ``shrinkage`` make the interpolation approximate (a number ≥ 0 or ``"auto"``;
     see :class:`~adverbs.interp.rbf.AdverbInterpolator`; 0, exact, is the default); ``goal_chain`` names
-    the joints that put the joint of ``joint_position`` adverbs on its goal (see :mod:`adverbs.verb.goal`).
+    the joints that put the joint of ``joint_position`` adverbs on its goal (see :mod:`adverbs.verb.goal`);
+    ``timing`` says whether keytime intervals extrapolate past the examples or stay within theirs
+    (``"extrapolate"``, the paper's, or ``"clamp"``; see :class:`~adverbs.verb.tables.Verb`).
     """
     if len(examples) < 1:
         raise AdverbsError(f"verb {name!r}: needs at least one example")
@@ -161,6 +164,7 @@ def build_verb(
         holds,
         hold_table,
         tuple(goal_chain),
+        timing,
     )
 
 
@@ -229,6 +233,7 @@ def build_with_examples(path: str | Path) -> tuple[Verb, list[Example]]:
             spec["smoothing"],
             spec["shrinkage"],
             spec["goal_chain"],
+            spec["timing"],
         )
         return verb, examples
     except SpecError:

@@ -138,8 +138,8 @@ class SamplingState:
         self.cached[changed] = True
         d = verb.num_dofs if verb.cyclic else 0  # a one-shot verb has no seam to hide
         refresh_batch(
-            self.points, changed, *verb.interpolator.kernel_tables, verb.log_intervals, verb.seam_table[:, :d],
-            self.weights, self.keytimes, self.seam[:, :d],
+            self.points, changed, *verb.interpolator.kernel_tables, verb.log_intervals, verb.interval_bounds,
+            verb.seam_table[:, :d], self.weights, self.keytimes, self.seam[:, :d],
         )  # fmt: skip
         if verb.goal is not None:
             self.goal[changed] = goals.solve(verb, verb.goal, self.weights[changed], self.keytimes[changed], p)
@@ -261,7 +261,7 @@ def dofs(verb: Verb, p: np.ndarray, t: np.ndarray) -> np.ndarray:
         rows = np.arange(min(CHUNK, len(t) - a))
         w = np.empty((len(rows), e))
         refresh_batch(
-            p[a : a + CHUNK], rows, *verb.interpolator.kernel_tables, no_keytimes, no_seam,
+            p[a : a + CHUNK], rows, *verb.interpolator.kernel_tables, no_keytimes, np.zeros((2, 0)), no_seam,
             w, np.empty((len(rows), 1)), np.empty((len(rows), 0)),
         )  # fmt: skip
         sample_batch(
@@ -299,7 +299,7 @@ def sample_reference(verb: Verb, points: np.ndarray, clocks: np.ndarray) -> np.n
     out = []
     for p, clock in zip(points, np.asarray(clocks, dtype=float).reshape(-1)):
         cp = ip.evaluate(p, coef)
-        k = np.concatenate([[0.0], np.cumsum(np.exp(ip.evaluate(p, logk)))])
+        k = np.concatenate([[0.0], np.cumsum(np.exp(np.clip(ip.evaluate(p, logk), *verb.interval_bounds)))])
         end = k[-1]
         cycle = max(math.ceil(clock / end - CYCLE_EPS) - 1, 0) if verb.cyclic else 0
         local = min(max(clock - cycle * end, 0.0), end)

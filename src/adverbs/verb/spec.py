@@ -13,6 +13,8 @@ smoothing = 0                 # interpolation: 0 exact (the paper's); a number o
 shrinkage = 0                 # shrink the linear part's slopes: 0 (default), a number or "auto"
 goal = { chain = ["Chest", "UpperArm_R", "LowerArm_R"] }  # optional: IK puts the joint_position adverbs'
                               # joint on the asked goal at their keytime (see adverbs.verb.goal)
+timing = "extrapolate"        # keytime intervals past the examples: "extrapolate" (the paper's) or "clamp"
+                              # (each within the examples' shortest and longest: further, never faster)
 
 [[adverbs]]
 name = "turn"
@@ -79,6 +81,7 @@ _TOP = {
     "smoothing",
     "shrinkage",
     "goal",
+    "timing",
 }
 _ADVERB = {"name", "unit", "measure", "description"}
 _EXAMPLE = {"name", "file", "cut", "frames", "keytimes", "mirror", "adverbs", "refine", "description"}
@@ -274,6 +277,9 @@ def load_spec(path: str | Path) -> dict[str, Any]:
     chain = goal.get("chain", [])
     if not isinstance(chain, list) or not all(isinstance(j, str) for j in chain) or (goal and not chain):
         raise SpecError(path, f"must be a list of one or more joint names, got {_show(chain)}", field="goal.chain")
+    timing = raw.get("timing", "extrapolate")
+    if timing not in ("extrapolate", "clamp"):  # adverbs.verb.tables.TIMINGS
+        raise SpecError(path, f'must be "extrapolate" or "clamp", got {_show(timing)}', field="timing")
     constraints = raw.get("constraints", "auto")
     if constraints != "auto":
         if not isinstance(constraints, list):
@@ -304,6 +310,7 @@ def load_spec(path: str | Path) -> dict[str, Any]:
         "smoothing": rules["smoothing"],
         "shrinkage": rules["shrinkage"],
         "goal_chain": tuple(chain),
+        "timing": timing,
         "encoding": encoding,
         "num_cp": num_cp,
         "cyclic": cyclic,

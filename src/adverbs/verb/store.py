@@ -39,10 +39,10 @@ from ..motion.encoding import KINDS, ROOT_COLUMNS, DofEncoding, _axes
 from .constraints import Constraint, Hold, check_constraint
 from .measures import check_measure
 from .synthesis import LONGEST_CYCLE, MAX_FPS
-from .tables import Adverb, ExampleRecord, Verb
+from .tables import TIMINGS, Adverb, ExampleRecord, Verb
 
-FORMAT = "adverbs-verb"  # 2 added keytime names, constraints, floor; 3 generic keytimes, smoothing; 4 holds; 5 goal
-VERSION = 5
+FORMAT = "adverbs-verb"  # 2 added keytime names, constraints, floor; 3 generic keytimes, smoothing; 4 holds; 5 goal; 6 timing
+VERSION = 6
 
 # The arrays of a verb file: member name (without ".npy") → (element kind, number of axes).
 ARRAYS = {
@@ -70,7 +70,7 @@ JSON_SHARE = 256  # verb.json may take 1/256 of the memory limit: parsed, JSON t
 
 _FIELDS = {
     "format", "version", "name", "cyclic", "fps", "num_cp", "keytime_names", "constraints", "holds", "floor",
-    "smoothing", "shrinkage", "goal_chain", "adverbs", "examples", "encoding", "skeleton",
+    "smoothing", "shrinkage", "goal_chain", "timing", "adverbs", "examples", "encoding", "skeleton",
 }  # fmt: skip
 _ZIP_ERRORS = (zipfile.BadZipFile, zlib.error, EOFError, OSError, ValueError, NotImplementedError, RuntimeError, struct.error)  # fmt: skip
 
@@ -112,6 +112,7 @@ def save_verb(verb: Verb, path: str | Path) -> None:
         "smoothing": verb.smoothing,
         "shrinkage": verb.shrinkage,
         "goal_chain": list(verb.goal_chain),
+        "timing": verb.timing,
         "adverbs": [{"name": a.name, "unit": a.unit, "measure": a.measure} for a in verb.adverbs],
         "examples": [
             {
@@ -528,6 +529,9 @@ class _Reader:
         smoothing = self.number(meta["smoothing"], "smoothing", lambda x: x >= 0, "a finite number ≥ 0")
         shrinkage = self.number(meta["shrinkage"], "shrinkage", lambda x: x >= 0, "a finite number ≥ 0")
         goal_chain = self.names(meta["goal_chain"], "goal_chain")
+        timing = meta["timing"]
+        if timing not in TIMINGS:
+            raise self.fail("timing", f"must be one of {', '.join(map(repr, TIMINGS))}, got {_show(timing)}")
 
         examples = self.items(meta["examples"], "examples")
         adverbs = self.items(meta["adverbs"], "adverbs")
@@ -581,7 +585,7 @@ class _Reader:
         )
         try:
             return Verb(name, enc, adverb_list, records, points, keytimes, coefficients, cyclic, fps, keytime_names,
-                        constraints, floor, generic, smoothing, shrinkage, holds, hold_table, goal_chain)  # fmt: skip
+                        constraints, floor, generic, smoothing, shrinkage, holds, hold_table, goal_chain, timing)  # fmt: skip
         except AdverbsError as err:  # what only the verb can check: distinct example points, the goal's joints
             raise VerbFileError(self.path, str(err), field="goal_chain" if ": goal:" in str(err) else None) from None
 

@@ -25,6 +25,7 @@ if TYPE_CHECKING:
 SHORTEST_CYCLE = 0.05  # seconds: a cycle (or one-shot motion) shorter than this has degenerated
 LONGEST_CYCLE = 60.0  # seconds: a cycle (or one-shot motion) longer than this has degenerated
 MAX_FPS = 1e4  # frames per second: far past any capture; a BVH frame time down to 1e-4 s
+MAX_GAIN = 1e6  # sum of the blend weights' magnitudes (1 within the examples): past this a motion has degenerated
 WARN_BEYOND = 0.25  # ranges of the examples: farther out than this, synthesize warns
 
 
@@ -47,14 +48,9 @@ def frame_clocks(
     if not (np.isfinite(fps) and 0 < fps <= MAX_FPS):
         raise AdverbsError(f"fps must be a positive number up to {MAX_FPS:g}, got {fps}")
     if not (np.isfinite(length) and SHORTEST_CYCLE <= length <= LONGEST_CYCLE):
-        at = "" if point is None else " at " + ", ".join(f"{n}={v:g}" for n, v in zip(verb.adverb_names, point))
-        lo, hi = verb.points.min(axis=0), verb.points.max(axis=0)
-        ranges = ", ".join(f"{n} {a:g} .. {b:g}" for n, a, b in zip(verb.adverb_names, lo, hi))
         what = "cycle" if verb.cyclic else "motion"
-        raise AdverbsError(
-            f"verb {verb.name!r}{at}: the motion degenerates there (one {what} would last {length:.3g} s; "
-            f"it must last from {SHORTEST_CYCLE:g} s to {LONGEST_CYCLE:g} s). The examples span {ranges}: "
-            "ask for adverbs nearer them (adverbs synth --clamp keeps them inside)"
+        raise degenerate(
+            verb, point, f"one {what} would last {length:.3g} s; it must last from {SHORTEST_CYCLE:g} s to {LONGEST_CYCLE:g} s"
         )
     if length * fps < 2.0:
         what = "cycle" if verb.cyclic else "motion"
@@ -71,6 +67,17 @@ def frame_clocks(
     return np.arange(frames) / fps, fps
 
 
+def degenerate(verb: Verb, point: np.ndarray | None, why: str) -> AdverbsError:
+    """The error for an adverb ``point`` so far outside the examples that the motion degenerates, ``why`` in brackets."""
+    at = "" if point is None else " at " + ", ".join(f"{n}={v:g}" for n, v in zip(verb.adverb_names, point))
+    lo, hi = verb.points.min(axis=0), verb.points.max(axis=0)
+    ranges = ", ".join(f"{n} {a:g} .. {b:g}" for n, a, b in zip(verb.adverb_names, lo, hi))
+    return AdverbsError(
+        f"verb {verb.name!r}{at}: the motion degenerates there ({why}). The examples span {ranges}: "
+        "ask for adverbs nearer them (adverbs synth --clamp keeps them inside)"
+    )
+
+
 def plan(
     verb: Verb,
     p: np.ndarray,
@@ -80,7 +87,8 @@ def plan(
 ) -> tuple[np.ndarray, sampling.SamplingState, np.ndarray, float]:
     """What a synthesis at ``p`` will sample, checked before any heavy work: the point ``(A,)``, its sampling state
     (one creature), the clock times ``(F,)`` of the frames and the frame rate. Warns when ``p`` lies more than
-    :data:`WARN_BEYOND` of the examples' ranges outside them."""
+    :data:`WARN_BEYOND` of the examples' ranges outside them; refuses a point whose blend weights' magnitudes sum past
+    :data:`MAX_GAIN`, or whose motion would last too long or too short (:func:`frame_clocks`)."""
     p = verb.point(p)
     beyond = verb.outside(p)
     if beyond.size and beyond.max() > WARN_BEYOND:
@@ -94,6 +102,9 @@ def plan(
         )
     state = sampling.SamplingState.new(verb, 1)
     state.update(verb, p[None])
+    gain = float(np.abs(state.weights).sum())  # how many times over the examples' differences are blended
+    if not gain <= MAX_GAIN:  # keytimes clamped to the examples' (Verb.timing) cannot show a runaway point
+        raise degenerate(verb, p, f"its blend weights the examples {gain:.3g} times over; at most {MAX_GAIN:g}")
     clocks, fps = frame_clocks(verb, state.keytimes[0, -1], duration, cycles, fps, p)
     return p, state, clocks, fps
 

@@ -80,6 +80,9 @@ class ExampleRecord:
     fine_error: float = 0.0  # largest pose error of the fit on a grid 4x finer than the frames, metres
 
 
+TIMINGS = ("extrapolate", "clamp")  # Verb.timing: how keytime intervals behave past the examples
+
+
 def _frozen(a: np.ndarray) -> np.ndarray:
     a = np.array(a, dtype=float)  # a private copy: nobody else holds a reference that could write to it
     a.setflags(write=False)
@@ -113,10 +116,15 @@ class Verb:
         see :class:`~adverbs.interp.rbf.AdverbInterpolator`)
     goal_chain : joints whose rotations put the joint of the verb's ``joint_position`` adverbs on the
         asked goal at their keytime (empty: no goal correction; see :mod:`adverbs.verb.goal`)
+    timing : how keytime intervals behave past the examples: ``"extrapolate"`` (default, the paper's:
+        each log interval is interpolated like any value, so a point past the quickest examples is
+        quicker still) or ``"clamp"`` (each interval stays within the examples' shortest and longest for
+        that interval: past the examples the motion goes further, never faster or slower than a take did)
 
     Derived tables (computed once): ``interpolator`` (cardinal weights), ``log_intervals (E, N-1)``,
-    ``segments (NumCP, E, D)`` (the coefficients by control point, with the B-spline basis's 1/6
-    folded in: what the sampling kernel reads), ``seam_table (E, D)`` (each example's end value
+    ``interval_bounds (2, N-1)`` (the smallest and largest log interval ``timing`` allows: ±∞ when it
+    extrapolates), ``segments (NumCP, E, D)`` (the coefficients by control point, with the B-spline
+    basis's 1/6 folded in: what the sampling kernel reads), ``seam_table (E, D)`` (each example's end value
     minus its start value, ``d(1) − d(0)``: the jump hidden where a cycle follows itself) and ``goal``
     (the :class:`~adverbs.verb.goal.Goal` of ``goal_chain``, or None).
     """
@@ -139,8 +147,10 @@ class Verb:
     holds: tuple[Hold, ...] = ()
     hold_table: np.ndarray | None = None
     goal_chain: tuple[str, ...] = ()
+    timing: str = "extrapolate"
     interpolator: AdverbInterpolator = field(init=False, repr=False)
     log_intervals: np.ndarray = field(init=False, repr=False)
+    interval_bounds: np.ndarray = field(init=False, repr=False)
     segments: np.ndarray = field(init=False, repr=False)
     seam_table: np.ndarray = field(init=False, repr=False)
     goal: Goal | None = field(init=False, repr=False)
@@ -200,6 +210,12 @@ class Verb:
         put(self, "smoothing", float(ip.smoothing))  # "auto" resolved: what a saved verb keeps
         put(self, "shrinkage", float(ip.shrinkage))
         put(self, "log_intervals", _frozen(log_intervals))
+        if self.timing not in TIMINGS:
+            raise AdverbsError(f"verb {name!r}: timing must be one of {', '.join(map(repr, TIMINGS))}, got {self.timing!r}")
+        bounds = np.array([log_intervals.min(axis=0), log_intervals.max(axis=0)])
+        if self.timing == "extrapolate":
+            bounds = np.stack([np.full(n - 1, -np.inf), np.full(n - 1, np.inf)])
+        put(self, "interval_bounds", _frozen(bounds))
         put(self, "segments", _frozen(coef.transpose(1, 0, 2) / 6.0))
         v0, _, v1, _ = bspline.ends(coef.transpose(1, 0, 2))
         put(self, "seam_table", _frozen(v1 - v0))
@@ -309,7 +325,7 @@ class Verb:
     def keytimes(self, p: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
         """Keytimes ``(..., N)`` at ``p``: strictly increasing from 0 (see the module's keytime policy)."""
         w = self.weights(p) if weights is None else weights
-        steps = np.exp(w @ self.log_intervals)
+        steps = np.exp(np.clip(w @ self.log_intervals, *self.interval_bounds))
         return np.concatenate([np.zeros(steps.shape[:-1] + (1,)), np.cumsum(steps, axis=-1)], axis=-1)
 
     def hold_times(self, weights: np.ndarray) -> np.ndarray:
