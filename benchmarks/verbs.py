@@ -18,7 +18,7 @@ from scipy.interpolate import RBFInterpolator
 
 from adverbs.interp import bspline
 from adverbs.verb.examples import examples_from_spec
-from adverbs.verb.fit import build_from_spec, build_verb
+from adverbs.verb.fit import build_from_examples, build_from_spec
 from adverbs.verb.spec import load_spec
 
 
@@ -30,11 +30,8 @@ def main() -> None:
     largest = "bandai_reach"
     spec = load_spec(SPECS / f"{largest}.toml")
     examples, adverbs = examples_from_spec(spec)
-    keys = ("name", "num_cp", "encoding", "cyclic", "constraints", "floor", "keytime_spacing", "smoothing", "shrinkage")
-    options = {k: spec[k] for k in keys} | {"goal_chain": spec["goal_chain"], "timing": spec["timing"]}
-    name = options.pop("name")
-    build = median_seconds(lambda: build_verb(name, examples, adverbs, **options), 5)
-    full = build_verb(name, examples, adverbs, **options)
+    build = median_seconds(lambda: build_from_examples(spec, examples, adverbs), 5)
+    full = build_from_examples(spec, examples, adverbs)
     size = f"{len(examples)} examples, {full.encoding.num_dofs} DOFs, NumCP {full.num_cp}, goal chain"
     rows.append((f"build {full.name} ({size})", f"{build * 1e3:.0f} ms"))
     from_spec = median_seconds(lambda: build_from_spec(SPECS / f"{largest}.toml"), 3)

@@ -216,6 +216,13 @@ def build_with_examples(path: str | Path) -> tuple[Verb, list[Example]]:
     """:func:`build_from_spec`, also returning the examples the verb was built from (cut, measured)."""
     spec = load_spec(path)
     examples, adverbs = examples_from_spec(spec)
+    return build_from_examples(spec, examples, adverbs), examples
+
+
+def build_from_examples(spec: dict, examples: Sequence[Example], adverbs: Sequence[Adverb]) -> Verb:
+    """The verb of a parsed ``spec`` (:func:`~adverbs.verb.spec.load_spec`) from its examples and adverbs, already
+    read and cut (:func:`~adverbs.verb.examples.examples_from_spec`): :func:`build_verb` with every option of the
+    spec, its errors raised as :class:`SpecError` naming the spec's field."""
     constraints = spec["constraints"]
     if constraints != "auto":
         constraints = [Constraint(str(c["effector"]), c["open"], c["close"]) for c in constraints]
@@ -235,7 +242,6 @@ def build_with_examples(path: str | Path) -> tuple[Verb, list[Example]]:
             spec["goal_chain"],
             spec["timing"],
         )
-        return verb, examples
     except SpecError:
         raise
     except AdverbsError as e:
@@ -253,3 +259,4 @@ def build_with_examples(path: str | Path) -> tuple[Verb, list[Example]]:
         elif "smoothing" in text:
             field = "smoothing"
         raise SpecError(spec["path"], text, example, field) from None
+    return verb

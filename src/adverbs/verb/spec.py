@@ -63,6 +63,7 @@ from ..errors import AdverbsError
 from ..limits import LIMITS
 from ..motion.encoding import KINDS
 from .measures import MEASURES
+from .tables import TIMINGS
 
 _TOP = {
     "name",
@@ -278,8 +279,9 @@ def load_spec(path: str | Path) -> dict[str, Any]:
     if not isinstance(chain, list) or not all(isinstance(j, str) for j in chain) or (goal and not chain):
         raise SpecError(path, f"must be a list of one or more joint names, got {_show(chain)}", field="goal.chain")
     timing = raw.get("timing", "extrapolate")
-    if timing not in ("extrapolate", "clamp"):  # adverbs.verb.tables.TIMINGS
-        raise SpecError(path, f'must be "extrapolate" or "clamp", got {_show(timing)}', field="timing")
+    if timing not in TIMINGS:
+        choices = " or ".join(f'"{t}"' for t in TIMINGS)
+        raise SpecError(path, f"must be {choices}, got {_show(timing)}", field="timing")
     constraints = raw.get("constraints", "auto")
     if constraints != "auto":
         if not isinstance(constraints, list):

@@ -212,9 +212,10 @@ class Verb:
         put(self, "log_intervals", _frozen(log_intervals))
         if self.timing not in TIMINGS:
             raise AdverbsError(f"verb {name!r}: timing must be one of {', '.join(map(repr, TIMINGS))}, got {self.timing!r}")
-        bounds = np.array([log_intervals.min(axis=0), log_intervals.max(axis=0)])
-        if self.timing == "extrapolate":
-            bounds = np.stack([np.full(n - 1, -np.inf), np.full(n - 1, np.inf)])
+        if self.timing == "clamp":
+            bounds = np.array([log_intervals.min(axis=0), log_intervals.max(axis=0)])
+        else:
+            bounds = np.repeat([[-np.inf], [np.inf]], n - 1, axis=1)
         put(self, "interval_bounds", _frozen(bounds))
         put(self, "segments", _frozen(coef.transpose(1, 0, 2) / 6.0))
         v0, _, v1, _ = bspline.ends(coef.transpose(1, 0, 2))
