@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from adverbs.apps.evaluate import HELD_OUT_CLASSES, HELD_OUT_METHODS, held_out
+from adverbs.apps.evaluate import HELD_OUT_CLASSES, HELD_OUT_METHODS, SPLITS, held_out
+from adverbs.errors import AdverbsError
 
 
 @pytest.fixture(scope="module")
@@ -17,12 +18,33 @@ def test_the_split_is_odd_takes_against_even_takes():
     for c in HELD_OUT_CLASSES:
         assert c.train == list(range(1, c.takes + 1, 2)) and c.test == list(range(2, c.takes + 1, 2))
         assert sorted(c.train + c.test) == list(range(1, c.takes + 1))
+        assert c.folds() == [(c.train, c.test)] and c.folds("even-odd") == [(c.test, c.train)]
+
+
+@pytest.mark.parametrize("split", SPLITS)
+def test_folds_never_predict_a_take_from_itself(split):
+    for c in HELD_OUT_CLASSES:
+        folds = c.folds(split)
+        tested = sorted(t for _, test in folds for t in test)
+        assert tested == (list(range(1, c.takes + 1)) if split == "leave-one-out" else sorted(folds[0][1]))
+        for train, test in folds:
+            assert not set(train) & set(test) and sorted(train + test) == list(range(1, c.takes + 1))
+
+
+def test_an_unknown_split_is_refused_by_name():
+    with pytest.raises(AdverbsError, match="'halves'.*odd-even, even-odd, leave-one-out"):
+        held_out(split="halves")
+    with pytest.raises(AdverbsError, match="'halves'"):
+        HELD_OUT_CLASSES[0].folds("halves")
 
 
 def test_table_lists_every_class_and_method(result):
     text = result.table()
     for c in HELD_OUT_CLASSES:
-        assert f"| {c.name} | {', '.join(f'{t:03d}' for t in c.train)} |" in text
+        assert (
+            f"| {c.name} | {', '.join(f'{t:03d}' for t in c.train)} | {', '.join(f'{t:03d}' for t in c.test)} |" in text
+        )
+    assert result.split == "odd-even" and all(len(picks) == 1 for picks in result.chosen)
     assert all(m in text for m in HELD_OUT_METHODS)
     for per in result.pose_mm:
         assert all(np.all(np.isfinite(per[m])) and per[m].shape == per["ours"].shape for m in HELD_OUT_METHODS)

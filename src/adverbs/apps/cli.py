@@ -8,7 +8,7 @@
                   [--no-ik] [--method M] [--clamp [MARGIN]] [--floor slope:DEGREES | FILE.npz]
                   -o OUT.bvh|OUT.glb [--portable]
     adverbs evaluate VERB [--png PLOT.png] [--json]
-    adverbs heldout [--data DIR]
+    adverbs heldout [--data DIR] [--split odd-even|even-odd|leave-one-out]
     adverbs figure VERB [--axes A B] -o OUT.png [--kind poses|space|feet] [--size N] [--example K]
     adverbs figure RUN_DIR|events.json -o OUT.png
     adverbs graph GRAPH.toml [--describe [--json] | --plan FROM TO | --play SCRIPT -o OUT.bvh|OUT.glb [--seconds S]
@@ -45,7 +45,7 @@ from ..verb.planting import foot_drift, measure_feet, plant_feet
 from ..verb.store import load_verb, save_verb
 from ..verb.tables import Verb
 from . import scene
-from .evaluate import DATA, METHODS, evaluate, held_out, predict
+from .evaluate import DATA, METHODS, SPLITS, evaluate, held_out, predict
 from .terminal import progress_bar
 
 
@@ -229,6 +229,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("heldout", help="predict held-out takes of the Bandai dataset-2 classes from the others")
     p.add_argument("--data", type=Path, default=DATA, help="folder of the Bandai BVH files (default: the shipped ones)")
+    p.add_argument(
+        "--split", choices=SPLITS, default="odd-even",
+        help="odd takes build and even takes are predicted (default), the other way round, or each take from all the others",
+    )  # fmt: skip
 
     p = sub.add_parser(
         "graph", help="a verb graph (spec TOML): describe it, plan a path through it, or play a script of commands",
@@ -654,7 +658,7 @@ def _run(args: argparse.Namespace) -> None:
     elif args.command == "heldout":
         update, close = progress_bar("predicting held-out takes")
         try:
-            print(held_out(data=args.data, progress=update).table())
+            print(held_out(data=args.data, progress=update, split=args.split).table())
         finally:
             close()
     elif args.command == "evaluate":

@@ -20,6 +20,7 @@ scaled adverb coordinates and interpolate log keytime intervals.
 Held-out takes (:func:`held_out`): for each class of Bandai Namco dataset-2 takes (straight walk, walk
 turning left, turning right, run, reach), the odd takes build the verb and the even takes are
 predicted at their measured adverb points; the same pose and adverb errors, medians over the test takes.
+The other way round (even takes build) and leave-one-take-out are there to show how much the split matters.
 
 Planted feet: at the same points, two cycles synthesized with and without the constraints enforced;
 the drift of each contact phase (see :func:`adverbs.verb.planting.planted_drift`).
@@ -317,6 +318,7 @@ def obedience(verb: Verb) -> dict[str, np.ndarray]:
 
 DATA = Path(__file__).resolve().parents[3] / "data" / "bandai"
 HELD_OUT_METHODS = ("ours", "ours-auto", "linear", "nearest", "idw", "scipy-rbf")
+SPLITS = ("odd-even", "even-odd", "leave-one-out")  # see TakeClass.folds
 
 
 @dataclass(frozen=True)
@@ -344,6 +346,21 @@ class TakeClass:
     def test(self) -> list[int]:
         """Even takes (2, 4, 6, …) are predicted at their measured adverb points."""
         return list(range(2, self.takes + 1, 2))
+
+    def folds(self, split: str = "odd-even") -> list[tuple[list[int], list[int]]]:
+        """``(train, test)`` take numbers of each fold of ``split`` (one of :data:`SPLITS`).
+
+        ``"odd-even"``: odd takes build, even takes are predicted (the README's table); ``"even-odd"``: the
+        other way round; ``"leave-one-out"``: each take predicted from all the others, one fold per take.
+        """
+        if split == "odd-even":
+            return [(self.train, self.test)]
+        if split == "even-odd":
+            return [(self.test, self.train)]
+        if split == "leave-one-out":
+            every = range(1, self.takes + 1)
+            return [([s for s in every if s != t], [t]) for t in every]
+        raise AdverbsError(f"unknown split {split!r}; splits are {', '.join(SPLITS)}")
 
     def spec(self, data: Path) -> str:
         """A verb spec (TOML) of every take, the same settings as the shipped walk and reach specs."""
@@ -380,12 +397,14 @@ HELD_OUT_CLASSES = (
 
 @dataclass
 class HeldOut:
-    """Per class: the split, the smoothing "auto" chose on the training takes, and per-method errors of each test take."""
+    """Per class: the folds of the split, the smoothing "auto" chose on each fold's training takes, and
+    per-method errors of each test take (every fold's test takes, in fold order)."""
 
     classes: list[TakeClass]
-    chosen: list[tuple[float, float]]  # (λ, μ) of ours-auto fitted to all the training takes
+    chosen: list[list[tuple[float, float]]]  # per fold: (λ, μ) of ours-auto fitted to its training takes
     pose_mm: list[dict[str, np.ndarray]]  # method → (T,) pose error of each test take
     adverb_pct: list[dict[str, np.ndarray]]  # method → (T,) adverb error, % of the training takes' range
+    split: str = "odd-even"
 
     def medians(self, errors: str = "pose_mm") -> list[dict[str, float]]:
         """Per class, each method's median error over the test takes."""
@@ -393,20 +412,32 @@ class HeldOut:
 
     def table(self) -> str:
         """Markdown: median pose error (and adverb error) of the test takes per class and method."""
-        head = (
-            "| class | train (odd takes) | test (even takes) | ours-auto λ, μ | " + " | ".join(HELD_OUT_METHODS) + " |"
-        )
-        rows = ["Held-out takes: median pose error, mm (median adverb error, % of the training range):", ""]
+        head = "| class | train | test | ours-auto λ, μ | " + " | ".join(HELD_OUT_METHODS) + " |"
+        rows = [
+            f"Held-out takes, split {self.split}: median pose error, mm (median adverb error, % of the training range):",
+            "",
+        ]
         rows += [head, "| --- " * (4 + len(HELD_OUT_METHODS)) + "|"]
-        for c, (lam, mu), pose, adverb in zip(self.classes, self.chosen, self.medians(), self.medians("adverb_pct")):
+        for c, chosen, pose, adverb in zip(self.classes, self.chosen, self.medians(), self.medians("adverb_pct")):
             cells = []
             best = min(pose[m] for m in ("linear", "nearest", "idw"))
             for m in HELD_OUT_METHODS:
                 text = f"{pose[m]:.1f} ({adverb[m]:.0f}%)"
                 cells.append(f"**{text}**" if m.startswith("ours") and pose[m] <= best else text)
-            split = f"{_takes(c.train)} | {_takes(c.test)}"
-            rows.append(f"| {c.name} | {split} | {lam:g}, {mu:g} | " + " | ".join(cells) + " |")
+            folds = c.folds(self.split)
+            if len(folds) == 1:
+                split = f"{_takes(folds[0][0])} | {_takes(folds[0][1])}"
+            else:
+                split = f"all but the test take | each take ({len(folds)} folds)"
+            rows.append(f"| {c.name} | {split} | {_chosen(chosen)} | " + " | ".join(cells) + " |")
         return "\n".join(rows)
+
+
+def _chosen(chosen: list[tuple[float, float]]) -> str:
+    """The (λ, μ) ours-auto chose: the one fold's, or the most frequent over the folds and how often."""
+    values, counts = np.unique(np.array(chosen), axis=0, return_counts=True)
+    lam, mu = values[np.argmax(counts)]
+    return f"{lam:g}, {mu:g}" if len(chosen) == 1 else f"{lam:g}, {mu:g} ({counts.max()} of {len(chosen)} folds)"
 
 
 def _takes(numbers: list[int]) -> str:
@@ -414,34 +445,45 @@ def _takes(numbers: list[int]) -> str:
 
 
 def held_out(
-    classes: tuple[TakeClass, ...] = HELD_OUT_CLASSES, data: Path = DATA, progress: Callable[[float, float], None] | None = None
-) -> HeldOut:  # fmt: skip
-    """Build each class's verb from its odd takes and predict its even takes (see :class:`TakeClass`).
+    classes: tuple[TakeClass, ...] = HELD_OUT_CLASSES,
+    data: Path = DATA,
+    progress: Callable[[float, float], None] | None = None,
+    split: str = "odd-even",
+) -> HeldOut:
+    """Build each class's verb from some of its takes and predict the others (see :meth:`TakeClass.folds`).
 
     One verb is built from every take of a class (so the held-out takes' own control points are the
-    truth, compared as in the leave-one-out table), and each method predicts from the training takes
-    only: ``ours-auto`` chooses its smoothing by leave-one-out among the training takes. The encoding's
+    truth, compared as in the leave-one-out table), and each method predicts from the fold's training
+    takes only: ``ours-auto`` chooses its smoothing by leave-one-out among those. The encoding's
     reference rotations (the centre of its log map) are the mean over all the class's takes: a chart
     shared by truth and prediction, not part of any method.
     """
+    if split not in SPLITS:
+        raise AdverbsError(f"unknown split {split!r}; splits are {', '.join(SPLITS)}")
     chosen, pose, adverb = [], [], []
+    total = sum(len(c.folds(split)) for c in classes)
+    done = 0
     with tempfile.TemporaryDirectory() as tmp:
-        for k, c in enumerate(classes):
+        for c in classes:
             if progress is not None:
-                progress(k, len(classes))
+                progress(done, total)
             path = Path(tmp) / f"{c.name}.toml"
             path.write_text(c.spec(Path(data).resolve()), encoding="utf-8")
             verb = build_from_spec(path)
-            train, test = np.array(c.train) - 1, np.array(c.test) - 1
-            ranges = _ranges(verb.points[train])
-            errors = [predicted_errors(verb, HELD_OUT_METHODS, i, train, ranges) for i in test]
+            errors, picks = [], []
+            for train_takes, test_takes in c.folds(split):
+                train, test = np.array(train_takes) - 1, np.array(test_takes) - 1
+                ranges = _ranges(verb.points[train])
+                errors += [predicted_errors(verb, HELD_OUT_METHODS, i, train, ranges) for i in test]
+                values = np.concatenate(
+                    [verb.coefficients[train].reshape(len(train), -1), verb.log_intervals[train]], axis=1
+                )
+                ip = AdverbInterpolator(verb.points[train], smoothing="auto", shrinkage="auto", values=values)
+                picks.append((ip.smoothing, ip.shrinkage))
+                done += 1
+                if progress is not None:
+                    progress(done, total)
             pose.append({m: np.array([e[m][0] for e in errors]) for m in HELD_OUT_METHODS})
             adverb.append({m: np.array([e[m][1] for e in errors]) for m in HELD_OUT_METHODS})
-            values = np.concatenate(
-                [verb.coefficients[train].reshape(len(train), -1), verb.log_intervals[train]], axis=1
-            )
-            ip = AdverbInterpolator(verb.points[train], smoothing="auto", shrinkage="auto", values=values)
-            chosen.append((ip.smoothing, ip.shrinkage))
-    if progress is not None:
-        progress(len(classes), len(classes))
-    return HeldOut(list(classes), chosen, pose, adverb)
+            chosen.append(picks)
+    return HeldOut(list(classes), chosen, pose, adverb, split)
