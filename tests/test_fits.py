@@ -21,6 +21,7 @@ from adverbs import AdverbsError
 from adverbs.errors import AdverbsWarning
 from adverbs.interp import bspline, timewarp
 from adverbs.verb.examples import examples_from_spec
+from adverbs.verb import fit
 from adverbs.verb.fit import build_verb, build_with_examples
 from adverbs.verb.spec import SpecError, load_spec
 
@@ -97,8 +98,13 @@ def test_no_joint_outruns_the_examples_with_toe_off_keytimes(toe_off_verbs, name
     _check_speeds(verb, examples)
 
 
-def test_the_paper_s_even_spacing_is_what_exploded(toe_off_verbs):
-    """Why generic keytimes follow the examples: evenly spaced, the same examples fit curves that swing between frames."""
+def test_the_paper_s_even_spacing_fits_worse(toe_off_verbs):
+    """Why generic keytimes follow the examples: evenly spaced, the same examples' curves move faster between frames.
+
+    Fitted to the frames alone, evenly spaced keytimes swung between frames (over 3x the examples'
+    fastest joint). Fitted to the frames joined, they no longer swing that far, but still 1.44x against
+    the examples' spacing's 1.01x (measured), and the build warns.
+    """
     verb, examples = toe_off_verbs["cmu_walk"]
     spec = load_spec(SPECS / "cmu_walk.toml")
     with pytest.warns(AdverbsWarning, match="faster between frames"):
@@ -107,7 +113,26 @@ def test_the_paper_s_even_spacing_is_what_exploded(toe_off_verbs):
         )
     own = max(_largest_joint_speed(ex.clip) for ex in examples)
     fastest = max(_largest_joint_speed(even.synthesize(p, cycles=1, fps=120)[0]) for p in even.points)
-    assert fastest > 3.0 * own
+    ours = max(_largest_joint_speed(verb.synthesize(p, cycles=1, fps=120)[0]) for p in verb.points)
+    assert fastest > 1.3 * own and fastest > 1.3 * ours
+
+
+@pytest.mark.parametrize("name", VERB_SPECS + RUN_SPECS)
+def test_between_frames_the_fits_follow_the_examples(verbs, run_verbs, name):
+    """Fitted to the frames alone, an example whose keytime interval is a frame long where the others' are
+    several overshot between those two frames: CMU's "jog turn right" put a toe 191 mm off its path for
+    1/30 s, Bandai's "proud" run 113 mm (6-9x the fit's error at the frames), and the shipped runs warned
+    that their fits could not be trusted. Fitted to the frames joined, no example departs from its path
+    between frames by more than 1.5x what it does at the frames (at most 1.46x, measured), and no joint
+    moves fast enough between frames for the build to warn.
+    """
+    verb, examples = {**verbs, **run_verbs}[name]
+    assert [x.name for x in verb.examples] == [ex.name for ex in examples]
+    for i, (x, ex) in enumerate(zip(verb.examples, examples)):
+        assert x.fine_error <= 1.5 * x.fit_error, x
+        k = verb.keytimes_table[i]
+        *_, speed = fit._fine_fit_check(verb.encoding, ex.clip, verb.coefficients[i], k, verb.generic_keytimes)
+        assert speed < fit.SPEED_WARNING, (x.name, speed)
 
 
 def test_fit_errors_are_reported_between_frames(verbs):

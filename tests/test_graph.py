@@ -403,6 +403,20 @@ def test_a_bad_adverb_in_a_script_is_refused_and_the_creature_carries_on(cmu):
     assert np.all(np.isfinite(perf.planted.rotations)) and perf.planted.num_frames == 90
 
 
+@pytest.mark.parametrize("value", [1e4, -1e4, 1e300])
+def test_an_adverb_far_outside_the_graph_is_refused_before_it_plays(cmu, value):
+    """Every adverb, far past the examples: refused up front, or as a cue (recorded, the point kept, the creature
+    moving on). Unchecked, ``run_speed=1e4`` divided by zero in the player and ``run_speed=100`` put toes 47 mm
+    through the floor."""
+    for name in cmu.adverb_names:
+        with pytest.raises(AdverbsError, match=f"{name}=.* is out of range: graph 'cmu' plays {name} from"):
+            perform(cmu, seconds=1.0, adverbs={name: value})
+        perf = perform(cmu, [Cue(0.2, "run" if "run" in name else "walk"), Cue(0.5, adverbs={name: value})], seconds=2.0)
+        assert [t for t, _ in perf.refused] == [0.5] and "out of range" in perf.refused[0][1]
+        np.testing.assert_array_equal(perf.state.points[0], cmu.point())
+        assert np.all(np.isfinite(perf.planted.translations)) and perf.planted.num_frames == 60
+
+
 def test_graph_adverbs_must_be_finite(cmu):
     with pytest.raises(AdverbsError, match="'turn' must be a finite number"):
         new_state(cmu, 1, points=np.array([[1.3, np.nan, 3.0]]))

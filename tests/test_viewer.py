@@ -174,3 +174,13 @@ def test_pause_stops_the_clock_and_play_goes_on(viewer, page):
     assert viewer.sim.time == t
     viewer.apply({"playing": True})
     _until(lambda: viewer.sim.time > t + 0.2, what="the clock again")
+
+
+@pytest.mark.parametrize("port", [0, 65536, 99999, -1, 8080.5, True])
+def test_a_bad_port_is_refused_before_anything_starts(viewer, port):
+    """``--port 99999`` raised OverflowError from the socket after the simulation had started, and hung."""
+    from adverbs.apps.viewer import Viewer
+    from adverbs.errors import AdverbsError
+
+    with pytest.raises(AdverbsError, match="port must be a whole number from 1 to 65535"):
+        Viewer(viewer.graphs, port=port)

@@ -81,3 +81,21 @@ def test_a_failed_run_keeps_its_recordings_and_log(tmp_path):
     failed = _adverbs(*args, limit=LIMIT)
     assert failed.returncode == 1 and "cannot write" in failed.stderr and "Traceback" not in failed.stderr, failed.stderr
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+
+
+def test_a_file_whose_root_is_absurdly_far_is_refused_by_the_writers_and_pictures(tmp_path):
+    """One root position of 1e300 (finite: every reader takes it) overflowed glTF's 32-bit floats into a file
+    read back as infinite, and made ``render`` build a floor grid it could not hold (a traceback)."""
+    lines = (CMU / "16_15_walk.bvh").read_text().splitlines()
+    motion = lines.index("MOTION")
+    values = lines[motion + 3].split()
+    values[0] = "1e300"
+    lines[motion + 3] = " ".join(values)
+    far = tmp_path / "far.bvh"
+    far.write_text("\n".join(lines) + "\n")
+    out = _adverbs("convert", far, tmp_path / "far.glb")
+    assert out.returncode != 0 and "Traceback" not in out.stderr, out.stderr
+    assert "32-bit floats" in out.stderr and not (tmp_path / "far.glb").exists()
+    out = _adverbs("render", far, "--panels", "2", "-o", tmp_path / "far.png")
+    assert out.returncode != 0 and "Traceback" not in out.stderr, out.stderr
+    assert "m from the origin" in out.stderr and not (tmp_path / "far.png").exists()

@@ -26,6 +26,7 @@ from ..motion.contacts import find_contacts
 CAMERAS = {"three-quarter": (40.0, 18.0), "side": (90.0, 4.0), "front": (0.0, 4.0), "back": (180.0, 4.0), "top": (0.0, 89.0)}
 FORMATS = (".gif", ".mp4", ".png")
 TRUNK = ("0.25", "tab:green", "tab:purple", "tab:brown", "tab:olive", "tab:cyan", "tab:pink", "tab:orange")
+MAX_DISTANCE = 1e5  # metres from the origin: joints farther than this are not drawn (a damaged file)
 MAX_FRAMES = 20_000
 
 
@@ -114,7 +115,7 @@ class _Painter:
 
     def draw(self, t: float, centre: np.ndarray, half: float, aspect: float, title: str = "", clock: bool = False) -> None:
         ax = self.ax
-        step = 1.0 if half < 12 else 5.0  # the floor: a grid around the centre
+        step = 1.0 if half < 12 else 5.0 if half < 60 else 10.0 ** np.ceil(np.log10(half / 6))  # the floor: a grid
         x0, z0 = np.floor((centre[[0, 2]] - 2 * half) / step) * step
         n = int(np.ceil(4 * half / step)) + 1
         ticks = np.arange(n + 1) * step
@@ -209,6 +210,12 @@ def render(
         raise AdverbsError("nothing to render: give one clip or more")
     az, el = camera(view)
     figures = [_figure(c, k) for k, c in enumerate(clips)]
+    for c, f in zip(clips, figures):
+        far = float(np.abs(f.positions).max(initial=0.0))
+        if not far <= MAX_DISTANCE:  # NaN too
+            raise AdverbsError(
+                f"clip {c.name!r}: a joint is {far:.3g} m from the origin; pictures show motion within {MAX_DISTANCE:g} m"
+            )
     if floor is None:
         lowest = float(np.percentile(np.concatenate([f.positions[..., 1].min(axis=1) for f in figures]), 2))
         floor = 0.0 if abs(lowest) < 0.1 else lowest

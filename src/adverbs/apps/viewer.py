@@ -74,6 +74,8 @@ class Viewer:
         graphs = [graphs] if isinstance(graphs, Graph) else list(graphs)
         if isinstance(creatures, bool) or not isinstance(creatures, int) or not 1 <= creatures <= 100:
             raise AdverbsError(f"creatures must be a whole number from 1 to 100, got {creatures!r}")
+        if isinstance(port, bool) or not isinstance(port, int) or not 1 <= port <= 65535:
+            raise AdverbsError(f"port must be a whole number from 1 to 65535, got {port!r}")
         self.graphs = graphs
         self.sim = Simulation(graphs, fps=fps, seed=seed, plant=plant, record=False, realtime=True)
         n = 0

@@ -78,7 +78,8 @@ def perform(
         raise AdverbsError(f"seconds must be a number in (0, {MAX_SECONDS:g}], got {seconds}")
     if not (np.isfinite(fps) and 1 <= fps <= MAX_FPS):
         raise AdverbsError(f"fps must be a number from 1 to {MAX_FPS:g}, got {fps}")
-    state = new_state(graph, 1, seed, start, graph.point(adverbs)[None], np.asarray(root, dtype=float)[None])
+    point = graph.check_point(graph.point(adverbs))  # a point far outside would play degenerate cycles
+    state = new_state(graph, 1, seed, start, point[None], np.asarray(root, dtype=float)[None])
     feet = planter(graph, 1, floor) if any(v.holds for v in graph.verbs) else None
     cues = sorted(script, key=lambda c: c.time)
     frames = int(round(seconds * fps)) + int(from_start)
@@ -101,7 +102,7 @@ def perform(
             try:
                 if cue.adverbs:
                     p = graph.point({**dict(zip(graph.adverb_names, state.points[0])), **cue.adverbs})
-                    state.points[0] = p
+                    state.points[0] = graph.check_point(p)
                 if cue.verb is not None:
                     command(state, 0, cue.verb)
             except (CommandRefused, AdverbsError) as e:

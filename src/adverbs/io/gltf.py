@@ -34,6 +34,7 @@ GENERATOR = "adverbs (https://github.com/adverbs)"
 FLOAT, UINT, USHORT, UBYTE = 5126, 5125, 5123, 5121
 DTYPES = {FLOAT: "<f4", UINT: "<u4", USHORT: "<u2", UBYTE: "<u1"}  # accessor component types as NumPy's
 ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER = 34962, 34963
+FLOAT32_MAX = float(np.finfo(np.float32).max)
 MOVES = 1e-9  # metres: a joint whose translation changes more than this over the clip gets a translation channel
 BONE_MIN = 0.01  # metres: bones shorter than this get no box
 COLOR = (0.82, 0.55, 0.28, 1.0)
@@ -57,6 +58,14 @@ def format_glb(clip: Clip, body: bool = True) -> bytes:
     trans = clip.translations
     if not (np.all(np.isfinite(rot)) and np.all(np.isfinite(trans))):
         raise AdverbsError(f"clip {clip.name!r}: NaN or infinite rotations or translations cannot be written")
+    with np.errstate(over="ignore", invalid="ignore"):  # a file's worth of 1e300s: refused just below
+        gpos = forward_kinematics(skel.parents, rot, trans)[0]
+        largest = max(float(np.abs(trans).max(initial=0.0)), float(np.abs(gpos).max(initial=0.0)))
+    if not largest <= FLOAT32_MAX:
+        raise AdverbsError(
+            f"clip {clip.name!r}: a translation or joint position of {largest:.3g} cannot be written: glTF stores "
+            f"32-bit floats, at most {FLOAT32_MAX:.3g} (it would read back as infinite)"
+        )
     j_count = skel.num_joints
     blob = bytearray()
     views: list[BufferView] = []

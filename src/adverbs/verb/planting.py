@@ -880,13 +880,16 @@ def measure_feet(
 
 
 def _slides(toe: np.ndarray, above: np.ndarray, releases: list, phases: list) -> np.ndarray:
-    """Per release ``(leg, start, stop)``: how far the toe travels horizontally while under ``LIFTED`` above its
-    contact height (``above (F, L)``) on its way up: from its last held frame to the swing's highest point
-    (before the next hold), so a foot that drags before it lifts counts and a landing does not."""
+    """Per release ``(leg, start, stop)``: how far the toe travels horizontally before it has left the ground on its
+    way up: from its last held frame until it is first ``LIFTED`` above its contact height (``above (F, L)``), and
+    no further than the swing's highest point (before the next hold). So a foot that drags before it lifts
+    counts, and neither a landing nor a swing that later passes low again (a cycle's seam) does."""
     out = []
     for i, a, b in releases:
         nxt = min([s for s, _ in phases[i] if s > a] or [len(toe)])
-        apex = b + int(np.argmax(above[b:nxt, i])) if nxt > b else b
-        steps = np.linalg.norm(np.diff(toe[b - 1 : apex + 1, i][:, [0, 2]], axis=0), axis=-1)
-        out.append(float(steps[above[b : apex + 1, i] < LIFTED].sum()))
+        swing = above[b : max(nxt, b + 1), i]
+        apex = int(np.argmax(swing))
+        lifted = np.flatnonzero(swing >= LIFTED)
+        stop = b + (min(int(lifted[0]), apex + 1) if len(lifted) else apex + 1)
+        out.append(float(np.linalg.norm(np.diff(toe[b - 1 : stop, i][:, [0, 2]], axis=0), axis=-1).sum()))
     return np.array(out)
