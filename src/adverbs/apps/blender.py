@@ -107,7 +107,11 @@ def main(argv: list[str] | None = None) -> int:
     print("| file | frames (ours / Blender) | joints | largest joint difference |")
     print("| --- | --- | --- | --- |")
     for f in files:
-        r = compare(f)
+        try:
+            r = compare(f)
+        except AdverbsError as e:
+            print(f"adverbs.apps.blender: error: {e}", file=sys.stderr)
+            return 1
         worst = max(worst, r["max_difference_m"])
         print(f"| {f} | {r['frames']} / {r['blender_frames']} | {r['joints']} | {r['max_difference_m'] * 1e3:.4f} mm |")
     return 0
