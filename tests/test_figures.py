@@ -58,5 +58,8 @@ def test_the_feet_figure_draws_planted_and_free_toes(verbs, tmp_path):
     pixels = np.asarray(Image.open(out).convert("RGB"))
     assert pixels.std() > 10
     assert _has(pixels, "#1f77b4") > 300 and _has(pixels, "#ff7f0e") > 300  # one colour per toe: both feet drawn
-    with pytest.raises(AdverbsError, match="--kind poses needs --axes"):
-        figure(verb, None, tmp_path / "x.png")
+    # Two adverbs: they are the axes. Three (the reach): say which two.
+    assert figure(verb, None, tmp_path / "grid.png", n=2).exists()
+    with pytest.raises(AdverbsError, match="--kind poses needs --axes A B: two of hand_x, hand_y, hand_z"):
+        figure(verbs["bandai_reach"][0], None, tmp_path / "x.png")
+    assert not (tmp_path / "x.png").exists()

@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import CMU, SPECS
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -144,6 +145,11 @@ def test_files_that_are_not_verb_files(walk, tmp_path):
     refused(tmp_path / "text.verb", b'{"format": "adverbs-verb"}\n', "not a zip archive")
     refused(tmp_path / "cut.verb", data[: len(data) // 2], "damaged verb file")
     refused(tmp_path / "end.verb", data[:-1], "damaged verb file")
+    # What a user might pass instead of a verb: said so, and how to make one.
+    spec = (SPECS / "cmu_walk.toml").read_bytes()
+    refused(tmp_path / "walk.toml", spec, "a spec, not a built verb: build it first (adverbs build SPEC.toml")
+    bvh = (CMU / "16_15_walk.bvh").read_bytes()
+    refused(tmp_path / "walk.bvh", bvh, "a BVH motion file, not a verb")
 
 
 def _local_data(data: bytes, name: str) -> int:

@@ -199,8 +199,9 @@ def build_parser() -> argparse.ArgumentParser:
         help="keep every adverb inside the examples' range (widened by MARGIN ranges, default 0)",
     )  # fmt: skip
     p.add_argument(
-        "--floor", default=None, metavar="slope:DEGREES|FILE",
-        help="the ground: flat (default, the verb's floor), slope:DEGREES rising along +Z, or a height map .npz",
+        "--floor", default=None, metavar="slope:DEGREES|flat:LEVEL|FILE",
+        help="the ground: flat (default, the verb's floor), slope:DEGREES rising along +Z, flat:LEVEL a level floor at "
+        "that height, or a height map .npz",
     )  # fmt: skip
     p.add_argument("-o", "--output", type=Path, required=True, metavar="OUT.bvh|OUT.glb")
     p.add_argument("--portable", action="store_true", help=PORTABLE_HELP)
@@ -221,7 +222,9 @@ def build_parser() -> argparse.ArgumentParser:
         ),
     )  # fmt: skip
     p.add_argument("verb", type=Path, metavar="VERB|RUN")
-    p.add_argument("--axes", nargs=2, metavar=("A", "B"), help="the two adverbs across the figure (poses, space)")
+    p.add_argument(
+        "--axes", nargs=2, metavar=("A", "B"), help="the two adverbs across the figure (poses, space; default: a verb's two)"
+    )
     p.add_argument("--kind", choices=("poses", "space", "feet", "run"), help="default: run for a run, else poses")
     p.add_argument("--size", type=int, default=5, help="poses along each axis (default 5)")
     p.add_argument("--example", type=int, default=0, help="with --kind space: whose weight (default the first example)")
@@ -406,10 +409,10 @@ def _print_describe(d: dict) -> None:
     print("  adverbs:")
     for a in d["adverbs"]:
         how = f"measured: {a['measure']['kind']}" if a["measure"] else "given by hand"
-        print(f"    {a['name']:<10} [{a['unit']}] {a['min']:.3f} .. {a['max']:.3f}  ({how})")
+        print(f"    {a['name']:<10} [{a['unit']}] {a['min']:.4g} .. {a['max']:.4g}  ({how})")
     print("  examples:")
     for x in d["examples"]:
-        values = ", ".join(f"{k}={v:.3f}" for k, v in x["adverbs"].items())
+        values = ", ".join(f"{k}={v:.4g}" for k, v in x["adverbs"].items())
         keys = ", ".join(f"{k:.3f}" for k in x["keytimes"])
         print(f"    {x['name']:<42} {values}")
         print(f"      {x['source']} ({x['part']}); keytimes {keys} s; fit error {x['fit_error_mm']:.1f} mm "

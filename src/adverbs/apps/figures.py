@@ -79,6 +79,8 @@ def figure(
     if kind == "feet":
         fig = _feet(verb, verb.points.mean(axis=0) if point is None else verb.point(point), plt)
         return save_figure(fig, output, plt)
+    if axes is None and len(verb.adverb_names) == 2:
+        axes = tuple(verb.adverb_names)  # the only two there are
     if axes is None:
         raise AdverbsError(f"--kind {kind} needs --axes A B: two of {', '.join(verb.adverb_names)}")
     ia, ib = _axes(verb, axes)

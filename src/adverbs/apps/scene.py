@@ -193,7 +193,8 @@ def main(args: argparse.Namespace) -> None:
         for line in summary(sim):
             print(line)
         for name, p in paths.items():
-            print(f"wrote {p}" + ("" if name == "events" else f" ({name})"))
+            creature = name.rsplit(".", 1)[0] if name.endswith((".bvh", ".glb")) else name  # a second format's key
+            print(f"wrote {p}" + ("" if name == "events" else f" (creature {creature})"))
     elif args.command == "render":
         clips = [read_motion(p) for p in args.motions]
         update, close = progress_bar("drawing")

@@ -243,6 +243,18 @@ def _read_file(path: Path) -> bytes:
     return data
 
 
+def _not_a_verb(path: Path, data: bytes) -> str:
+    """Why ``data``, with no zip directory, is not a verb file: what it looks like instead, if it is something we read."""
+    head = data[:4096].lstrip()
+    if head.startswith(b"HIERARCHY"):
+        return "a BVH motion file, not a verb: a verb is built from a spec of examples (adverbs build SPEC.toml -o VERB.verb)"
+    if path.suffix.lower() == ".toml":
+        return "a spec, not a built verb: build it first (adverbs build SPEC.toml -o VERB.verb)"
+    if head.startswith(b"glTF"):
+        return "a glTF motion file, not a verb: a verb is built from a spec of examples (adverbs build SPEC.toml -o VERB.verb)"
+    return "damaged verb file: not a zip archive (no end of central directory)"
+
+
 def _check_directory(path: Path, data: bytes) -> None:
     """Refuse a zip directory too large for a verb's 14 members, before :mod:`zipfile` reads it.
 
@@ -254,7 +266,7 @@ def _check_directory(path: Path, data: bytes) -> None:
         start = max(len(data) - (1 << 16) - 22, 0)
         end = data.rfind(b"PK\x05\x06", start)
         if end < 0 or len(data) - end < 22:
-            raise VerbFileError(path, "damaged verb file: not a zip archive (no end of central directory)")
+            raise VerbFileError(path, _not_a_verb(path, data))
     entries, size = struct.unpack("<HI", data[end + 10 : end + 16])
     if end >= 20 and data[end - 20 : end - 16] == b"PK\x06\x07":
         raise VerbFileError(path, "damaged verb file: a ZIP64 archive, which adverbs never writes")
