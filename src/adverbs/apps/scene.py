@@ -183,6 +183,11 @@ def _size(text: str) -> tuple[int, int]:
     return w, h
 
 
+def _creature(key: str) -> str:
+    """The creature a recording's key names (a second format's key is the creature's name and the format)."""
+    return key.rsplit(".", 1)[0] if key.endswith((".bvh", ".glb")) else key
+
+
 def main(args: argparse.Namespace) -> None:
     if args.command == "run":
         floor = parse_floor(args.floor) if args.floor else None
@@ -193,8 +198,7 @@ def main(args: argparse.Namespace) -> None:
         for line in summary(sim):
             print(line)
         for name, p in paths.items():
-            creature = name.rsplit(".", 1)[0] if name.endswith((".bvh", ".glb")) else name  # a second format's key
-            print(f"wrote {p}" + ("" if name == "events" else f" (creature {creature})"))
+            print(f"wrote {p}" + ("" if name == "events" else f" (creature {_creature(name)})"))
     elif args.command == "render":
         clips = [read_motion(p) for p in args.motions]
         update, close = progress_bar("drawing")
@@ -253,7 +257,7 @@ def demo(out: Path, script: Path = DEMO_SCRIPT) -> dict[str, Path]:
         print(f"{c}: feet {f}")
     print(f"\ndone in {time.perf_counter() - started:.0f} s; wrote:")
     for name, p in paths.items():
-        print(f"  {p}" + ("" if name in ("events", "animation", "filmstrip", "report") else f"  ({name})"))
+        print(f"  {p}" + ("" if name in ("events", "animation", "filmstrip", "report") else f"  (creature {_creature(name)})"))
     return paths
 
 
