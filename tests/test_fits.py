@@ -130,8 +130,9 @@ def test_between_frames_the_fits_follow_the_examples(verbs, run_verbs, name):
     assert [x.name for x in verb.examples] == [ex.name for ex in examples]
     for i, (x, ex) in enumerate(zip(verb.examples, examples)):
         assert x.fine_error <= 1.5 * x.fit_error, x
-        k = verb.keytimes_table[i]
-        *_, speed = fit._fine_fit_check(verb.encoding, ex.clip, verb.coefficients[i], k, verb.generic_keytimes)
+        k, num_cp = verb.keytimes_table[i], verb.coefficients.shape[1]
+        coefficients, *_, speed = fit._fit_example(verb.encoding, ex.clip, k, verb.generic_keytimes, num_cp)
+        np.testing.assert_array_equal(coefficients, verb.coefficients[i])  # the fit the verb was built with
         assert speed < fit.SPEED_WARNING, (x.name, speed)
 
 

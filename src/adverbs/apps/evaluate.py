@@ -463,10 +463,10 @@ def held_out(
     chosen, pose, adverb = [], [], []
     total = sum(len(c.folds(split)) for c in classes)
     done = 0
+    if progress is not None:
+        progress(done, total)
     with tempfile.TemporaryDirectory() as tmp:
         for c in classes:
-            if progress is not None:
-                progress(done, total)
             path = Path(tmp) / f"{c.name}.toml"
             path.write_text(c.spec(Path(data).resolve()), encoding="utf-8")
             verb = build_from_spec(path)

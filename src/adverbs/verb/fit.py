@@ -121,9 +121,7 @@ def build_verb(
     coefficients = np.empty((len(examples), num_cp, enc.num_dofs))
     records = []
     for i, ex in enumerate(examples):
-        t, samples = _samples(enc, ex.clip, keytimes[i], spacing)
-        coefficients[i], _ = bspline.fit(t, samples, num_cp, FIT_SMOOTHING)
-        err, fine_err, speed = _fine_fit_check(enc, ex.clip, coefficients[i], keytimes[i], spacing)
+        coefficients[i], err, fine_err, speed = _fit_example(enc, ex.clip, keytimes[i], spacing, num_cp)
         if speed > SPEED_WARNING:
             warnings.warn(
                 f"example {ex.name!r}: its fitted curves move a joint {speed:.1f}x faster between frames than the "
@@ -179,28 +177,40 @@ def _joined(clip: Clip) -> Clip:
     return clip.at(np.arange((clip.num_frames - 1) * FINE + 1) / FINE, clip.fps * FINE)
 
 
-def _samples(enc: DofEncoding, clip: Clip, keytimes: np.ndarray, spacing: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """What an example's curves are fitted to: generic times ``(S,)`` and DOFs ``(S, D)`` of its frames joined,
-    ``FINE`` samples per frame.
+def _fit_example(
+    enc: DofEncoding, clip: Clip, keytimes: np.ndarray, spacing: np.ndarray, num_cp: int
+) -> tuple[np.ndarray, float, float, float]:
+    """An example's control points ``(num_cp, D)``, fitted to :func:`_samples`, and how well they fit it
+    (:func:`_fine_fit_check`): the clip and its frames joined are encoded once for both."""
+    framed, joined = enc.encode(clip), enc.encode(_joined(clip))
+    t, samples = _samples(clip, framed, joined, keytimes, spacing)
+    coefficients, _ = bspline.fit(t, samples, num_cp, FIT_SMOOTHING)
+    return coefficients, *_fine_fit_check(enc, clip, coefficients, t, samples, framed)
 
-    The pose columns are the frames joined by slerp (:func:`_joined`). The root's velocities are the
-    frames' own (each frame's step to the next, which playing at the example's rate integrates back to
-    its path exactly) joined linearly: the joined clip's would be each step's velocity held over its
-    frame, whose fit is half a frame late at every frame.
+
+def _samples(
+    clip: Clip, framed: np.ndarray, joined: np.ndarray, keytimes: np.ndarray, spacing: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """What an example's curves are fitted to: generic times ``(S,)`` and DOFs ``(S, D)`` of its frames joined,
+    ``FINE`` samples per frame, from the DOFs of ``clip`` (``framed (F, D)``) and of :func:`_joined` (``joined``).
+
+    The pose columns are the frames joined by slerp. The root's velocities are the frames' own (each
+    frame's step to the next, which playing at the example's rate integrates back to its path exactly)
+    joined linearly: the joined clip's would be each step's velocity held over its frame, whose fit is
+    half a frame late at every frame.
     """
-    joined = _joined(clip)
-    values = enc.encode(joined)
-    at = np.arange(joined.num_frames) / FINE  # frame positions
-    own = enc.encode(clip)[:, :VELOCITIES]
+    values = joined.copy()
+    at = np.arange(len(joined)) / FINE  # frame positions
     for c in range(VELOCITIES):
-        values[:, c] = np.interp(at, np.arange(clip.num_frames), own[:, c])
+        values[:, c] = np.interp(at, np.arange(clip.num_frames), framed[:, c])
     return timewarp.generic_time(at / clip.fps, keytimes, spacing), values
 
 
 def _fine_fit_check(
-    enc: DofEncoding, clip: Clip, coefficients: np.ndarray, keytimes: np.ndarray, spacing: np.ndarray
+    enc: DofEncoding, clip: Clip, coefficients: np.ndarray, t: np.ndarray, samples: np.ndarray, framed: np.ndarray
 ) -> tuple[float, float, float]:
-    """How well the curves fit ``clip``: at its frames, and on a grid ``FINE`` times finer.
+    """How well the curves fit ``clip``: at its frames, and on a grid ``FINE`` times finer (the generic times ``t``
+    and DOFs ``samples`` of :func:`_samples`; ``framed``: the clip's own DOFs).
 
     Returns the largest distance (metres) of the fitted joints (from the body root down) from the
     clip's at its frames; the largest distance on the fine grid between the fitted pose and the
@@ -210,21 +220,20 @@ def _fine_fit_check(
     """
     skel = clip.skeleton
     body = np.flatnonzero(skel.below(enc.body_root)).tolist()
-    t = timewarp.generic_time(np.arange(clip.num_frames) / clip.fps, keytimes, spacing)
-    decoded = enc.decode(bspline.evaluate(coefficients, t), clip.fps, enc.start(clip))
+    at = t[::FINE]  # the frames' own generic times
+    decoded = enc.decode(bspline.evaluate(coefficients, at), clip.fps, enc.start(clip))
     at_frames = np.linalg.norm(forward_kinematics(skel.parents, *decoded)[0][:, body] - clip.global_positions()[:, body], axis=-1)
 
     def own_frame(dofs: np.ndarray, fps: float) -> np.ndarray:
         dofs = dofs.copy()
-        dofs[:, :3] = 0.0  # no travel, no turning: the pose in the character's own frame
+        dofs[:, :VELOCITIES] = 0.0  # no travel, no turning: the pose in the character's own frame
         return forward_kinematics(skel.parents, *enc.decode(dofs, fps))[0][:, body]
 
-    fine = _joined(clip)
-    t = timewarp.generic_time(np.arange(fine.num_frames) / fine.fps, keytimes, spacing)
-    fitted = own_frame(bspline.evaluate(coefficients, t), fine.fps)
-    error = np.linalg.norm(own_frame(enc.encode(fine), fine.fps) - fitted, axis=-1).max()
-    own = own_frame(enc.encode(clip), clip.fps)
-    speed = np.linalg.norm(np.diff(fitted, axis=0), axis=-1).max() * fine.fps
+    fine_fps = clip.fps * FINE
+    fitted = own_frame(bspline.evaluate(coefficients, t), fine_fps)
+    error = np.linalg.norm(own_frame(samples, fine_fps) - fitted, axis=-1).max()
+    own = own_frame(framed, clip.fps)
+    speed = np.linalg.norm(np.diff(fitted, axis=0), axis=-1).max() * fine_fps
     speed_own = np.linalg.norm(np.diff(own, axis=0), axis=-1).max() * clip.fps
     return float(at_frames.max()), float(error), float(speed / speed_own)
 

@@ -246,12 +246,11 @@ def _read_file(path: Path) -> bytes:
 def _not_a_verb(path: Path, data: bytes) -> str:
     """Why ``data``, with no zip directory, is not a verb file: what it looks like instead, if it is something we read."""
     head = data[:4096].lstrip()
-    if head.startswith(b"HIERARCHY"):
-        return "a BVH motion file, not a verb: a verb is built from a spec of examples (adverbs build SPEC.toml -o VERB.verb)"
+    motion = "BVH" if head.startswith(b"HIERARCHY") else "glTF" if head.startswith(b"glTF") else None
+    if motion is not None:
+        return f"a {motion} motion file, not a verb: a verb is built from a spec of examples (adverbs build SPEC.toml -o VERB.verb)"
     if path.suffix.lower() == ".toml":
         return "a spec, not a built verb: build it first (adverbs build SPEC.toml -o VERB.verb)"
-    if head.startswith(b"glTF"):
-        return "a glTF motion file, not a verb: a verb is built from a spec of examples (adverbs build SPEC.toml -o VERB.verb)"
     return "damaged verb file: not a zip archive (no end of central directory)"
 
 
