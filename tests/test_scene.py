@@ -111,6 +111,10 @@ def test_cli_run_and_render(tmp_path, capsys):
     assert read_bvh(tmp_path / "o" / "creature1.bvh").num_frames == 60
     assert main(["render", str(tmp_path / "o" / "creature1.bvh"), "-o", str(tmp_path / "c.png"), "--panels", "3", "--camera", "side"]) == 0
     assert (tmp_path / "c.png").exists()
+    bvh = str(tmp_path / "o" / "creature1.bvh")
+    assert main(["render", bvh, "-o", str(tmp_path / "d.png"), "--panels", "2", "--floor", "slope:5"]) == 0
+    assert main(["render", bvh, "-o", str(tmp_path / "e.png"), "--floor", "slope:95"]) == 1
+    assert "--floor 'slope:95'" in capsys.readouterr().err and not (tmp_path / "e.png").exists()
     bad = tmp_path / "bad.toml"
     bad.write_text("seconds = 2\n[[cues]]\nat = 'noon'\nperform = 'run'\n")
     assert main(["run", str(ROOT / "graphs" / "cmu.toml"), "--script", str(bad), "--out", str(tmp_path / "p")]) == 1
@@ -169,3 +173,38 @@ def test_the_run_figure_names_what_is_missing(scene, tmp_path):
     assert main(["figure", str(paths["events"].parent), "-o", str(tmp_path / "y.png"), "--kind", "poses"]) != 0
     assert main(["figure", str(paths["events"].parent), "-o", str(tmp_path / "y.png")]) == 0
     assert (tmp_path / "y.png").stat().st_size > 10_000
+
+
+def _colour(image, rgb, tol=40):
+    return np.all(np.abs(image.astype(int) - np.array(rgb)) < tol, axis=-1)
+
+
+def test_render_draws_the_ground_the_feet_were_planted_on(verbs, tmp_path):
+    """A walk planted up a 10° slope, drawn from the side over that slope: in every panel the orange contact dots
+    and the floor grid are right under the feet. Drawn over a level floor (what render did before it took a
+    floor), the dots and grid stay at height 0 while the walker climbs out of their sight."""
+    from adverbs.kinematics.floor import SlopeFloor
+    from adverbs.verb.planting import plant_feet
+
+    verb, _ = verbs["cmu_walk"]
+    p = verb.points.mean(axis=0)
+    clip, k = verb.synthesize(p, cycles=6)
+    up, _ = plant_feet(verb, clip, k, SlopeFloor(10.0), p)
+    assert up.global_positions()[-1, 0, 1] > 1.0  # it climbed a metre: a level floor at 0 is far below
+    png = render([up], tmp_path / "up.png", view="side", panels=4, size=(320, 240), floor=SlopeFloor(10.0))
+    strip = np.asarray(Image.open(png).convert("RGB"))
+    panels = np.array_split(strip, 4, axis=1)
+    for i, panel in enumerate(panels):
+        limbs = _colour(panel, (31, 119, 180)) | _colour(panel, (214, 39, 40))  # left blue, right red
+        dots = _colour(panel, (255, 127, 14))
+        grid = _colour(panel, (217, 217, 217), tol=12)
+        rows, cols = np.nonzero(limbs)
+        foot_row = rows.max()  # the lowest limb pixel: a foot
+        assert dots.sum() > 10, f"panel {i}: no contact dot drawn"
+        dr, dc = np.nonzero(dots)
+        # every dot within 8 % of the panel's height of a limb pixel
+        near = np.hypot(dr[:, None] - rows[None], dc[:, None] - cols[None]).min(axis=1)
+        assert near.max() < 0.08 * panel.shape[0], (i, near.max())
+        # the grid runs by the lowest foot: within 8 % of the panel's height of it (a metre up the slope is 40 %)
+        h, c = int(0.08 * panel.shape[0]), int(cols[rows == foot_row].mean())
+        assert grid[foot_row - h : foot_row + h, c - h : c + h].any(), f"panel {i}: no floor grid by the feet"

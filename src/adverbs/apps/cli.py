@@ -15,7 +15,7 @@
                   [--fps F] [--seed N] [--adverb NAME=VALUE ...] [--floor ...] [--start VERB]]
     adverbs run [GRAPH.toml ...] --script SCRIPT.toml --out DIR [--realtime] [--fps N] [--seed S] [--seconds S]
                 [--format bvh,glb] [--portable]
-    adverbs render MOTION.bvh ... -o OUT.gif|OUT.mp4|OUT.png [--camera C] [--fps F] [--size WxH] [--fixed]
+    adverbs render MOTION.bvh ... -o OUT.gif|OUT.mp4|OUT.png [--camera C] [--fps F] [--size WxH] [--fixed] [--floor ...]
     adverbs demo [--out DIR]
     adverbs view [GRAPH.toml | VERB] [--creatures N] [--host H] [--port P] [--fps F] [--seed S] [--no-ik]
 

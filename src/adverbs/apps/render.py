@@ -7,7 +7,8 @@ Matplotlib draws each frame; Pillow encodes a GIF, imageio's FFmpeg plugin an MP
 The camera follows the figures (the mean of their roots, smoothed) and widens to keep them all in view;
 ``follow=False`` frames the whole motion once. Left limbs are blue, right red, each figure's trunk its own
 colour; a foot on the ground (found from its height and speed, :func:`adverbs.motion.contacts.find_contacts`)
-is marked with a dot on the floor.
+is marked with a dot on the floor. The floor is level by default; given a :class:`~adverbs.kinematics.floor.Floor`
+(a slope, a height map) its grid, the dots and the trail follow its surface.
 """
 
 from __future__ import annotations
@@ -20,14 +21,17 @@ import numpy as np
 
 from ..errors import AdverbsError
 from ..io.files import atomic_path
+from ..kinematics.floor import LEVEL_LIMIT, FlatFloor, Floor
 from ..motion.clip import Clip
 from ..motion.contacts import find_contacts
 
 CAMERAS = {"three-quarter": (40.0, 18.0), "side": (90.0, 4.0), "front": (0.0, 4.0), "back": (180.0, 4.0), "top": (0.0, 89.0)}
 FORMATS = (".gif", ".mp4", ".png")
 TRUNK = ("0.25", "tab:green", "tab:purple", "tab:brown", "tab:olive", "tab:cyan", "tab:pink", "tab:orange")
-MAX_DISTANCE = 1e5  # metres from the origin: joints farther than this are not drawn (a damaged file)
+MAX_DISTANCE = LEVEL_LIMIT  # metres from the origin: joints farther than this are not drawn (a damaged file)
 MAX_FRAMES = 20_000
+GRID_SAMPLES = 48  # points along each grid line on a floor that is not level
+
 
 
 def camera(name: str) -> tuple[float, float]:
@@ -58,13 +62,13 @@ class _Figure:
     fps: float
 
 
-def _figure(clip: Clip, k: int) -> _Figure:
+def _figure(clip: Clip, k: int, floor: Floor | None = None) -> _Figure:
     pos = clip.global_positions()
     skel = clip.skeleton
     trunk = TRUNK[k % len(TRUNK)]
     colours = [{"left": "tab:blue", "right": "tab:red"}.get(skel.side(j), trunk) for j in range(skel.num_joints)]
     try:
-        contacts = find_contacts(clip)
+        contacts = find_contacts(clip, floor=floor)
         feet = [f.toe if f.toe is not None else f.ankle for f in contacts.feet]
         planted = contacts.planted
     except AdverbsError:  # no feet named: nothing to mark
@@ -92,7 +96,7 @@ def _basis(az: float, el: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 class _Painter:
     """Draws frames of figures into one matplotlib axes: its artists are made once and moved frame after frame."""
 
-    def __init__(self, ax, figures: Sequence[_Figure], az: float, el: float, floor: float, trail: float):
+    def __init__(self, ax, figures: Sequence[_Figure], az: float, el: float, floor: Floor, trail: float):
         self.figures, self.floor, self.trail = figures, floor, trail
         self.right, self.up, self.eye = _basis(az, el)
         self.attach(ax)
@@ -113,28 +117,30 @@ class _Painter:
     def project(self, p: np.ndarray) -> np.ndarray:
         return np.stack([p @ self.right, p @ self.up], axis=-1)
 
+    def _on_floor(self, xz: np.ndarray) -> np.ndarray:
+        """Points ``(..., 3)`` on the floor's surface below horizontal positions ``xz (..., 2)``."""
+        return np.stack([xz[..., 0], self.floor.height(xz), xz[..., 1]], axis=-1)
+
     def draw(self, t: float, centre: np.ndarray, half: float, aspect: float, title: str = "", clock: bool = False) -> None:
         ax = self.ax
         step = 1.0 if half < 12 else 5.0 if half < 60 else 10.0 ** np.ceil(np.log10(half / 6))  # the floor: a grid
         x0, z0 = np.floor((centre[[0, 2]] - 2 * half) / step) * step
         n = int(np.ceil(4 * half / step)) + 1
         ticks = np.arange(n + 1) * step
-        ends = np.array([0.0, n * step])
-        lines = [[(x0 + a, self.floor, z0 + b) for b in ends] for a in ticks]
-        lines += [[(x0 + b, self.floor, z0 + a) for b in ends] for a in ticks]
-        self.grid.set_segments(self.project(np.array(lines)))
+        along = np.linspace(0.0, n * step, 2 if self.floor.is_flat else GRID_SAMPLES)
+        a, b = np.meshgrid(ticks, along, indexing="ij")  # (lines, points): a line's offset, a point's along it
+        xz = np.concatenate([np.stack([x0 + a, z0 + b], axis=-1), np.stack([x0 + b, z0 + a], axis=-1)])
+        self.grid.set_segments(self.project(self._on_floor(xz)))
         segments, colours, depths, spots = [], [], [], []
         for fig, line in zip(self.figures, self.trails):
             f = min(int(round(t * fig.fps)), len(fig.positions) - 1)
             pos = fig.positions[f]
             if self.trail > 0:
                 a = max(0, f - int(self.trail * fig.fps))
-                path = fig.positions[a : f + 1, fig.trail].copy()
-                path[:, 1] = self.floor
-                line.set_data(*self.project(path).T)
+                line.set_data(*self.project(self._on_floor(fig.positions[a : f + 1, fig.trail][:, [0, 2]])).T)
             for i, j in enumerate(fig.feet):
                 if fig.planted[f, i]:
-                    spots.append(self.project(np.array([pos[j, 0], self.floor, pos[j, 2]])))
+                    spots.append(self.project(self._on_floor(pos[j, [0, 2]])))
             for j in fig.bones:
                 p = fig.parents[j]
                 segments.append(self.project(pos[[p, j]]))
@@ -157,25 +163,27 @@ def _framing(figures: Sequence[_Figure], times: np.ndarray, follow: bool, painte
     roots = np.stack([
         np.stack([f.positions[min(int(round(t * f.fps)), len(f.positions) - 1), f.trail] for f in figures]) for t in times
     ])  # fmt: skip (T, K, 3)
-    everything = np.concatenate([f.positions.reshape(-1, 3) for f in figures])
-    height = float(np.ptp(everything[:, 1])) if len(everything) else 1.0
     if not follow:
-        flat = painter.project(everything)
+        flat = painter.project(np.concatenate([f.positions.reshape(-1, 3) for f in figures]))
         lo, hi = flat.min(axis=0), flat.max(axis=0)
         centre_2d = 0.5 * (lo + hi)
         half = 0.55 * max(hi[0] - lo[0], (hi[1] - lo[1]) * aspect, 1.0)
         # a point whose projection is the centre of the view
         centre = centre_2d[0] * painter.right + centre_2d[1] * painter.up
         return np.tile(centre, (len(times), 1)), np.full(len(times), half)
+    frames = [[f.positions[min(int(round(t * f.fps)), len(f.positions) - 1), :, 1] for f in figures] for t in times]
+    lows = np.array([min(y.min() for y in ys) for ys in frames])  # (T,): the lowest joint shown at each time
+    height = float(max(max(y.max() for y in ys) - low for ys, low in zip(frames, lows)))  # the tallest at one time
     centre = roots.mean(axis=1)
-    spread = np.linalg.norm(roots - centre[:, None], axis=-1).max(axis=1)
+    centre[:, 1] = lows
+    spread = np.linalg.norm((roots - centre[:, None])[..., [0, 2]], axis=-1).max(axis=1)
     # smoothed both ways (a critically damped look-at would lag): a moving average over about a second
     width = max(1, int(round(len(times) / max(times[-1] - times[0], 1e-9)))) if len(times) > 1 else 1
     kernel = np.ones(width) / width
     pad = lambda x: np.concatenate([np.repeat(x[:1], width // 2, 0), x, np.repeat(x[-1:], width - 1 - width // 2, 0)])  # noqa: E731
     centre = np.stack([np.convolve(pad(centre[:, i]), kernel, mode="valid") for i in range(3)], axis=1)
     spread = np.convolve(pad(spread), kernel, mode="valid")
-    centre[:, 1] = 0.5 * height + float(everything[:, 1].min())
+    centre[:, 1] += 0.5 * height  # up and down with the ground under them (a slope), smoothed
     half = np.maximum(spread + 0.6 * height, 0.7 * height * aspect)
     return centre, half
 
@@ -189,14 +197,15 @@ def render(
     panels: int = 8,
     follow: bool = True,
     trail: float = 4.0,
-    floor: float | None = None,
+    floor: float | Floor | None = None,
     split: bool = False,
     progress: Callable[[int, int], object] | None = None,
 ) -> Path:
     """Draw ``clips`` (one scene: they play together from time 0) into ``output``: ``.gif`` or ``.mp4`` (every frame
     at ``fps``, default the first clip's up to 30) or ``.png`` (``panels`` evenly spaced frames). ``view``: a
-    named camera or ``"AZ,EL"``; ``trail``: seconds of root path shown (0: none); ``floor``: the floor's height
-    (default: 0, or where the feet are if they stand well off it); ``split``: each clip in its own view, side by
+    named camera or ``"AZ,EL"``; ``trail``: seconds of root path shown (0: none); ``floor``: the ground, a
+    :class:`~adverbs.kinematics.floor.Floor` (the one the feet were planted on) or a level's height (default: level
+    at 0, or where the feet are if they stand well off it); ``split``: each clip in its own view, side by
     side (a filmstrip: a row each), rather than all in one."""
     import matplotlib
 
@@ -209,7 +218,7 @@ def render(
     if not clips:
         raise AdverbsError("nothing to render: give one clip or more")
     az, el = camera(view)
-    figures = [_figure(c, k) for k, c in enumerate(clips)]
+    figures = [_figure(c, k, floor if isinstance(floor, Floor) else None) for k, c in enumerate(clips)]
     for c, f in zip(clips, figures):
         far = float(np.abs(f.positions).max(initial=0.0))
         if not far <= MAX_DISTANCE:  # NaN too
@@ -219,6 +228,8 @@ def render(
     if floor is None:
         lowest = float(np.percentile(np.concatenate([f.positions[..., 1].min(axis=1) for f in figures]), 2))
         floor = 0.0 if abs(lowest) < 0.1 else lowest
+    if not isinstance(floor, Floor):
+        floor = FlatFloor(floor)
     seconds = max((len(f.positions) - 1) / f.fps for f in figures)
     fps = min(clips[0].fps, 30.0) if fps is None else float(fps)
     if not (np.isfinite(fps) and 0 < fps <= 120):

@@ -73,6 +73,10 @@ def add_parsers(sub, positive, seed) -> None:
     p.add_argument("--fixed", action="store_true", help="a fixed camera framing the whole motion, instead of following it")
     p.add_argument("--trail", type=float, default=4.0, help="seconds of root path shown (0: none; default 4)")
     p.add_argument("--split", action="store_true", help="each motion in its own view, side by side")
+    p.add_argument(
+        "--floor", metavar="slope:DEGREES|flat:LEVEL|FILE",
+        help="the ground to draw, as given to synth or run (default level, at 0 or where the feet are)",
+    )  # fmt: skip
 
     p = sub.add_parser(
         "demo", help="the main job: build the shipped graphs and play a scenario; write BVH, pictures and a report",
@@ -201,11 +205,12 @@ def main(args: argparse.Namespace) -> None:
             print(f"wrote {p}" + ("" if name == "events" else f" (creature {_creature(name)})"))
     elif args.command == "render":
         clips = [read_motion(p) for p in args.motions]
+        floor = parse_floor(args.floor) if args.floor else None
         update, close = progress_bar("drawing")
         try:
             out = render(
                 clips, args.output, args.camera, args.fps, _size(args.size), args.panels, not args.fixed, args.trail,
-                split=args.split, progress=None if update is None else (lambda i, n: update(i, n)),
+                floor, split=args.split, progress=None if update is None else (lambda i, n: update(i, n)),
             )  # fmt: skip
         finally:
             close()

@@ -17,6 +17,7 @@ import numpy as np
 
 from ..errors import AdverbsError
 from ..kinematics.fk import end_site_positions
+from ..kinematics.floor import Floor
 from ..kinematics.skeleton import Foot
 from .clip import Clip
 
@@ -104,6 +105,7 @@ def find_contacts(
     speed: float = 0.6,
     min_duration: float = 0.05,
     max_gap: float = 0.07,
+    floor: Floor | None = None,
 ) -> Contacts:
     """Find when each foot is planted; see the module docstring for the rule.
 
@@ -113,13 +115,14 @@ def find_contacts(
     height : metres above the point's lowest level (5th percentile) that still count as low.
     speed : horizontal speed in m/s below which a point counts as still.
     min_duration, max_gap : seconds, for cleaning the masks.
+    floor : the ground the clip walks on, if not level (a slope, a height map): heights are measured above it.
     """
     feet = list(clip.skeleton.feet() if feet is None else feet)
     if not feet:
         raise AdverbsError(
             f"clip {clip.name!r}: no feet found from joint names; name them (ankle and toe joints) explicitly"
         )
-    planted = np.any(_low_and_still(foot_points(clip, feet), clip.fps, height, speed), axis=-1)  # (F, N)
+    planted = np.any(_low_and_still(foot_points(clip, feet), clip.fps, height, speed, floor), axis=-1)  # (F, N)
     gap = round(max_gap * clip.fps)
     shortest = max(round(min_duration * clip.fps), 1)
     for i in range(len(feet)):
@@ -151,9 +154,11 @@ def point_contacts(
     return down, pts
 
 
-def _low_and_still(pts: np.ndarray, fps: float, height: float, speed: float) -> np.ndarray:
-    """Points ``(F, ..., 3)`` within ``height`` of their own low level (5th percentile) and slower than ``speed``."""
-    low = pts[..., 1] - np.percentile(pts[..., 1], 5, axis=0) < height
+def _low_and_still(pts: np.ndarray, fps: float, height: float, speed: float, floor: Floor | None = None) -> np.ndarray:
+    """Points ``(F, ..., 3)`` within ``height`` of their own low level (5th percentile) and slower than ``speed``;
+    heights above ``floor`` if given."""
+    y = pts[..., 1] if floor is None else pts[..., 1] - floor.height(pts[..., [0, 2]])
+    low = y - np.percentile(y, 5, axis=0) < height
     if len(pts) > 1:
         vel = np.gradient(pts[..., [0, 2]], axis=0) * fps
         still = np.linalg.norm(vel, axis=-1) < speed
