@@ -164,6 +164,9 @@ def test_interpolator_errors():
     bad[2, 1] = np.nan
     with pytest.raises(AdverbsError, match="'example 3' has a non-finite"):
         AdverbInterpolator(bad)
+    bad[2, 1], bad[3, 1] = 1e308, -1e308  # finite, but their range overflows: the two would look alike
+    with pytest.raises(AdverbsError, match=r"'example 3' has an adverb value beyond ±1e\+12"):
+        AdverbInterpolator(bad)
     ip = AdverbInterpolator(pts)
     with pytest.raises(AdverbsError, match="finite"):
         ip.weights(np.array([0.0, np.nan, 0.0]))

@@ -126,6 +126,7 @@ def test_num_cp_is_bounded_by_the_frame_limit(tmp_path):
         ("keytimes = [0.0, 0.5, 1.3]", "keytimes = [0.0, nan, 1.3]", "keytimes", "b"),
         ("keytimes = [0.0, 0.5, 1.3]", "keytimes = [0.0, inf, 1.3]", "keytimes", "b"),
         ("adverbs = { mood = 1.0 }", "adverbs = { mood = -inf }", "adverbs.mood", "b"),
+        ("adverbs = { mood = 1.0 }", "adverbs = { mood = 1e308 }", "adverbs.mood", "b"),  # a typo, not a mood
         ("keytime = 1 }", "keytime = -1 }", "adverbs.mood.measure", None),
         ("keytime = 1 }", "keytime = 10000000000000 }", "adverbs.mood.measure", None),
         ("num_cp = 12", "num_cp = 12\nfps = nan", "fps", None),

@@ -54,6 +54,7 @@ ALPHA_CAP = 1.0  # the largest radial scale α, in ranges of the examples (scale
 ALPHA_FLOOR = 1.0  # with smoothing λ > 0, the smallest α, in median nearest-example distances
 SMOOTHING_GRID = np.concatenate([[0.0], np.geomspace(1e-3, 1e3, 13)])  # the λ that "auto" chooses among
 SHRINKAGE_GRID = SMOOTHING_GRID  # the μ that "auto" chooses among
+ADVERB_LIMIT = 1e12  # an example's adverb value beyond ± this is a typo (and ranges of ±1e308 overflow)
 AUTO_TIE = 1e-9  # "auto": scores this close to the minimum (relative to the values' variance) count as ties
 
 
@@ -236,6 +237,12 @@ class AdverbInterpolator:
         bad = ~np.all(np.isfinite(points), axis=1)
         if bad.any():
             raise AdverbsError(f"example {names[int(np.argmax(bad))]!r} has a non-finite adverb value")
+        bad = ~np.all(np.abs(points) <= ADVERB_LIMIT, axis=1)
+        if bad.any():
+            raise AdverbsError(
+                f"example {names[int(np.argmax(bad))]!r} has an adverb value beyond ±{ADVERB_LIMIT:g}: "
+                f"{points[int(np.argmax(bad))].tolist()}"
+            )
         linear = np.ones(e, dtype=bool) if linear is None else np.asarray(linear, dtype=bool)
         if linear.shape != (e,) or not linear.any():
             raise AdverbsError("at least one example must take part in the linear fit")

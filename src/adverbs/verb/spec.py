@@ -60,6 +60,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import AdverbsError
+from ..interp.rbf import ADVERB_LIMIT
 from ..limits import LIMITS
 from ..motion.encoding import KINDS
 from .measures import MEASURES
@@ -428,8 +429,10 @@ def _example(path: Path, ex: dict) -> None:
     if not isinstance(given, dict):
         raise SpecError(path, "must be a table of adverb values", name, "adverbs")
     for key, value in given.items():
-        if not _number(value):
-            raise SpecError(path, f"must be a finite number, got {_show(value)}", name, f"adverbs.{key}")
+        if not (_number(value) and abs(value) <= ADVERB_LIMIT):
+            raise SpecError(
+                path, f"must be a finite number within ±{ADVERB_LIMIT:g}, got {_show(value)}", name, f"adverbs.{key}"
+            )
 
 
 def _unknown(path: Path, table: dict, allowed: set[str], example: str | None, prefix: str = "") -> None:
