@@ -1,0 +1,101 @@
+"""adverbs: verbs and adverbs — continuous, controllable motion from a few example clips.
+
+The package is cut in layers, each a subpackage that imports only from the ones below it:
+
+| layer | holds |
+| --- | --- |
+| :mod:`adverbs.interp` | B-splines, keytime warping, linear + radial interpolation (pure numerics) |
+| :mod:`adverbs.kinematics` | quaternions, skeletons, forward kinematics, two-bone IK, floors |
+| :mod:`adverbs.motion` | clips, heading, DOF encodings, foot contacts, cutting examples |
+| :mod:`adverbs.io` | BVH read and write |
+| :mod:`adverbs.verb` | a verb's tables, building, sampling, synthesis, files, specs, measures, planted feet |
+| :mod:`adverbs.graph` | verb graphs: specs, transitions, the planner, creatures stepping through them |
+| :mod:`adverbs.runtime` | the event loop and clocks, simulations of creatures on graphs, timed scripts |
+| :mod:`adverbs.apps` | the command line and evaluation |
+
+What most users need is re-exported here, so ``import adverbs`` is enough.
+"""
+
+from .errors import AdverbsError, BVHError
+from .interp import AdverbInterpolator
+from .graph import CommandRefused, Cue, Graph, GraphSpecError, load_graph, perform
+from .io import format_bvh, parse_bvh, portable, read_bvh, read_glb, read_motion, write_bvh, write_glb, write_motion
+from .kinematics import FlatFloor, HeightMapFloor, LegChains, Skeleton, SlopeFloor, forward_kinematics, ik, quat
+from .motion import Clip, DofEncoding, cut_steps, find_contacts
+from .runtime import Creature, Simulation
+from .verb import (
+    Adverb,
+    Constraint,
+    Example,
+    FootPlanter,
+    SamplingState,
+    SpecError,
+    Verb,
+    advance,
+    build_from_spec,
+    build_verb,
+    foot_drift,
+    load_spec,
+    load_verb,
+    measure_feet,
+    plant_feet,
+    plant_feet_many,
+    sample,
+    save_verb,
+    synthesize,
+)
+
+__all__ = [
+    "Adverb",
+    "AdverbInterpolator",
+    "AdverbsError",
+    "BVHError",
+    "Clip",
+    "CommandRefused",
+    "Creature",
+    "Cue",
+    "Constraint",
+    "DofEncoding",
+    "Example",
+    "FlatFloor",
+    "FootPlanter",
+    "Graph",
+    "GraphSpecError",
+    "HeightMapFloor",
+    "LegChains",
+    "SamplingState",
+    "Simulation",
+    "Skeleton",
+    "SlopeFloor",
+    "SpecError",
+    "Verb",
+    "advance",
+    "build_from_spec",
+    "build_verb",
+    "cut_steps",
+    "find_contacts",
+    "foot_drift",
+    "format_bvh",
+    "forward_kinematics",
+    "ik",
+    "load_graph",
+    "load_spec",
+    "load_verb",
+    "measure_feet",
+    "parse_bvh",
+    "perform",
+    "plant_feet",
+    "plant_feet_many",
+    "portable",
+    "quat",
+    "read_bvh",
+    "read_glb",
+    "read_motion",
+    "sample",
+    "save_verb",
+    "synthesize",
+    "write_bvh",
+    "write_glb",
+    "write_motion",
+]
+__version__ = "0.1.0"

@@ -1,0 +1,40 @@
+"""Verb graphs (§5): verbs strung together by transitions, a planner, and creatures moving through them."""
+
+from .performance import Cue, Performance, perform
+from .player import (
+    Frame,
+    GraphState,
+    blend_weight,
+    command,
+    duration,
+    feet,
+    hold_phases,
+    new_state,
+    plant,
+    planter,
+    step,
+)
+from .spec import GraphSpecError, load_graph
+from .structure import CommandRefused, Graph, Transition
+
+__all__ = [
+    "CommandRefused",
+    "Cue",
+    "Frame",
+    "Graph",
+    "GraphSpecError",
+    "GraphState",
+    "Performance",
+    "Transition",
+    "blend_weight",
+    "command",
+    "duration",
+    "feet",
+    "hold_phases",
+    "load_graph",
+    "new_state",
+    "perform",
+    "plant",
+    "planter",
+    "step",
+]

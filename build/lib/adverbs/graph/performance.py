@@ -1,0 +1,155 @@
+"""A scripted performance through a verb graph, recorded: what ``adverbs graph --play`` writes and tests measure.
+
+:func:`perform` runs :func:`~adverbs.graph.player.step` and the graph's foot planter frame by frame for one
+creature, following a script of timed commands (a verb to perform, or adverbs to change), and records
+the motion before and after planting, what was playing at every frame, and how planting went.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..errors import AdverbsError
+from ..limits import check_frames
+from ..kinematics.floor import Floor
+from ..motion.clip import Clip
+from ..motion.contacts import runs
+from ..verb.planting import PlantingReport, mode_masks
+from ..verb.synthesis import MAX_FPS, plan
+from .player import GraphState, command, first_frame, new_state, plant, planter, step
+from .structure import CommandRefused, Graph
+
+if TYPE_CHECKING:
+    from ..verb.tables import Verb
+
+MAX_SECONDS = 3600.0
+
+
+@dataclass
+class Cue:
+    """At ``time`` seconds: perform ``verb`` (when given) and set ``adverbs`` (when given)."""
+
+    time: float
+    verb: str | None = None
+    adverbs: dict[str, float] | None = None
+
+
+@dataclass
+class Performance:
+    """One creature's recorded performance: the ``planted`` clip and the ``free`` one (before planting), what
+    played at every frame (``playing``: words; ``active (F,)``: the transition under way, −1 none; ``verb
+    (F,)``), the planting ``report``, the commands ``refused`` (time, reason) and the final ``state``."""
+
+    planted: Clip
+    free: Clip
+    playing: list[str]
+    active: np.ndarray
+    verb: np.ndarray
+    report: PlantingReport
+    refused: list[tuple[float, str]]
+    state: GraphState
+
+
+def perform(
+    graph: Graph,
+    script: Sequence[Cue] = (),
+    seconds: float = 10.0,
+    fps: float = 30.0,
+    seed: int = 0,
+    floor: Floor | None = None,
+    start: str | None = None,
+    adverbs: dict[str, float] | None = None,
+    root: Sequence[float] = (0.0, 0.0, 0.0),
+    from_start: bool = False,
+) -> Performance:
+    """Play ``seconds`` of one creature through ``graph`` at ``fps``, following ``script``; plant its feet on ``floor``
+    (default: flat, at the level of the first verb that holds feet).
+
+    The frames are those shown at ``dt, 2 dt, …, seconds``; with ``from_start``, the frame at time 0 too (the
+    start of the first verb, as :func:`~adverbs.graph.player.first_frame` shows it). A cue whose command is
+    refused (an unknown or unreachable verb, a bad adverb) is recorded in :attr:`Performance.refused` and the
+    creature carries on.
+    """
+    if not (np.isfinite(seconds) and 0 < seconds <= MAX_SECONDS):
+        raise AdverbsError(f"seconds must be a number in (0, {MAX_SECONDS:g}], got {seconds}")
+    if not (np.isfinite(fps) and 1 <= fps <= MAX_FPS):
+        raise AdverbsError(f"fps must be a number from 1 to {MAX_FPS:g}, got {fps}")
+    point = graph.check_point(graph.point(adverbs))  # a point far outside would play degenerate cycles
+    state = new_state(graph, 1, seed, start, point[None], np.asarray(root, dtype=float)[None])
+    feet = planter(graph, 1, floor) if any(v.holds for v in graph.verbs) else None
+    cues = sorted(script, key=lambda c: c.time)
+    frames = int(round(seconds * fps)) + int(from_start)
+    check_frames(frames, graph.skeleton.num_joints, f"{seconds:g} s at {fps:g} fps")
+    dt = 1.0 / fps
+    j = graph.skeleton.num_joints
+    rot, trans = np.empty((frames, j, 4)), np.empty((frames, j, 3))
+    free_rot, free_trans = np.empty((frames, j, 4)), np.empty((frames, j, 3))
+    playing, active, verb = [], np.empty(frames, dtype=np.int64), np.empty(frames, dtype=np.int64)
+    legs = len(feet.tips) if feet is not None else 0
+    modes, turns, drops = np.zeros((frames, legs), dtype=np.int64), np.zeros((frames, legs)), np.zeros(frames)
+    refused: list[tuple[float, str]] = []
+    unreachable = 0
+    k = 0
+    for f in range(frames):
+        now = (f - int(from_start)) * dt
+        while k < len(cues) and cues[k].time <= now + 1e-9:
+            cue = cues[k]
+            k += 1
+            try:
+                if cue.adverbs:
+                    p = graph.point({**dict(zip(graph.adverb_names, state.points[0])), **cue.adverbs})
+                    state.points[0] = graph.check_point(p)
+                if cue.verb is not None:
+                    command(state, 0, cue.verb)
+            except (CommandRefused, AdverbsError) as e:
+                refused.append((cue.time, str(e)))
+        frame = first_frame(state) if from_start and f == 0 else step(state, dt)
+        free_rot[f], free_trans[f] = frame.rotations[0], frame.translations[0]
+        if feet is not None:
+            r, t, result = plant(feet, frame, dt, state.alone)
+            rot[f], trans[f] = r[0], t[0]
+            modes[f], turns[f] = feet.mode[0], feet.turn[0]
+            drops[f] = result.root_drop[0]
+            unreachable += int(np.count_nonzero(result.unreachable))
+        else:
+            rot[f], trans[f] = free_rot[f], free_trans[f]
+        playing.append(state.playing(0))
+        active[f], verb[f] = state.active[0], state.verb[0]
+    held, flat, heel = mode_masks(modes, turns)
+    report = PlantingReport(
+        [runs(held[:, i]) for i in range(legs)], drops, unreachable, [],
+        [runs(flat[:, i]) for i in range(legs)], [runs(heel[:, i]) for i in range(legs)],
+    )  # fmt: skip
+    name = graph.name
+    planted = Clip(graph.skeleton, rot, trans, fps, name=name)
+    free = Clip(graph.skeleton, free_rot, free_trans, fps, name=name)
+    return Performance(planted, free, playing, active, verb, report, refused, state)
+
+
+def repeat(
+    verb: Verb,
+    p: np.ndarray,
+    duration: float | None = None,
+    cycles: float | None = None,
+    fps: float | None = None,
+    floor: Floor | None = None,
+) -> tuple[Performance, np.ndarray]:
+    """A cyclic verb at adverb point ``p`` played ``cycles`` times (or for ``duration`` seconds), each cycle going on
+    into the next through the verb's own loop into itself (§5: :meth:`Graph.of_verb`), its feet planted on ``floor``.
+
+    What ``adverbs synth --cycles`` writes: the frames are those of :func:`~adverbs.verb.synthesis.synthesize` (time
+    0 to the end, at the verb's fps unless given), checked the same way before any work. Returns the performance and
+    the keytimes ``(N,)`` of one cycle at ``p``.
+    """
+    if not verb.cyclic:
+        raise AdverbsError(f"verb {verb.name!r} is a one-shot motion: it has no cycle to repeat")
+    p, state, clocks, fps = plan(verb, p, duration, cycles, fps)
+    graph = Graph.of_verb(verb)
+    performance = perform(
+        graph, seconds=float(clocks[-1]), fps=fps, floor=floor, adverbs=dict(zip(verb.adverb_names, p)), from_start=True,
+    )  # fmt: skip
+    return performance, state.keytimes[0].copy()

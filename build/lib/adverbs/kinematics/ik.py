@@ -1,0 +1,292 @@
+"""Inverse kinematics for planted feet (§3.3, eq. 2): damped least squares on two-bone chains.
+
+Each constrained effector (an ankle) hangs from a two-bone chain: the upper joint (hip) with three
+rotational DOFs and the middle joint (knee) bending about a hinge. Every iteration solves
+
+    J Δθ = Δx,    Δθ = Jᵀ (J Jᵀ + λ² I)⁻¹ Δx                      (damped least squares)
+
+with the analytic Jacobian ``J = [ −[p_e − p_u]× | h × (p_e − p_m) ]`` (3 × 4: hip rotations about the
+world axes, then the knee hinge ``h``). ``J Jᵀ = (‖v‖² + λ²) I − v vᵀ + c cᵀ`` has a closed-form inverse
+(Sherman–Morrison), so an iteration is a handful of vector operations, batched over any leading axes
+(creatures, frames) and over the legs. The knee is kept from hyper-extending (flexion ≥ ``min_flex``),
+the root is lowered when a target is beyond the leg's reach (by at most half a leg: a pit is not
+reached by squatting into it; what stays out of reach is reported), and only the chain's joints change: the
+effector's own rotation is set so the foot keeps its global orientation (tilted to the ground's slope
+when a tilt is given).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import AdverbsError
+from . import quat
+from .skeleton import Skeleton
+
+REACH = 0.995  # fraction of the straight leg's length a target may ask for
+MAX_STEP = 0.25  # radians: the largest joint change of one iteration
+ITERATIONS = 8
+MAX_DROP = 0.5  # the root is lowered by at most this fraction of the shortest leg's reach
+DAMPING = 0.01  # λ, metres
+MISS = 1e-3  # metres: an effector farther than this from its target counts as out of reach
+
+
+@dataclass(frozen=True, eq=False)
+class LegChains:
+    """Two-bone chains ending at the constrained effectors, ``L`` of them.
+
+    An effector is either the chain's end (an ankle, a wrist) or a point fixed in the end's frame
+    (a toe joint below the ankle): the end's global orientation is kept from the motion, so holding the
+    toe means holding the ankle at ``toe − R_ankle · tip_offset``.
+
+    Attributes
+    ----------
+    upper, middle, end : (L,) int
+        Hip, knee and ankle joint indices.
+    tip_offset : (L, 3)
+        The effector's offset in the end's frame (zeros when the effector is the end itself).
+    above : tuple of int
+        Joints from the root to the hips' common parent, root first (their FK gives the hips' frame).
+        The last of them (the pelvis) is what is lowered when a target is out of reach.
+    hinge : (L, 3)
+        The knee's bending axis in the hip's frame (flexion is positive about it).
+    upper_offset, end_offset : (L, 3)
+        The knee's offset in the hip's frame and the ankle's in the knee's frame (metres).
+    """
+
+    upper: np.ndarray
+    middle: np.ndarray
+    end: np.ndarray
+    above: tuple[int, ...]
+    hinge: np.ndarray
+    upper_offset: np.ndarray
+    end_offset: np.ndarray
+    tip_offset: np.ndarray
+    min_flex: float = np.deg2rad(2.0)
+
+    @property
+    def reach(self) -> np.ndarray:
+        return REACH * (np.linalg.norm(self.upper_offset, axis=1) + np.linalg.norm(self.end_offset, axis=1))
+
+    @classmethod
+    def build(cls, skeleton: Skeleton, effectors: Sequence[str | int], sample_rotations: np.ndarray) -> LegChains:
+        """Chains for ``effectors``; the hinge axes are fitted to ``sample_rotations (F, J, 4)`` of real motion.
+
+        A toe found by :meth:`Skeleton.feet` hangs from its ankle; any other effector ends its chain.
+        """
+        toes = {f.toe: f.ankle for f in skeleton.feet() if f.toe is not None}
+        tips = [skeleton.index(e) if isinstance(e, str) else int(e) for e in effectors]
+        ends = [toes.get(t, t) for t in tips]
+        tip_offset = np.array([skeleton.offsets[t] if t in toes else np.zeros(3) for t in tips]).reshape(-1, 3)
+        middle, upper = [], []
+        for e in ends:
+            chain = skeleton.ancestors(e)
+            if len(chain) < 3:
+                raise AdverbsError(f"effector {skeleton.names[e]!r} needs two joints above it for IK")
+            middle.append(chain[1])
+            upper.append(chain[2])
+        parents = {int(skeleton.parents[u]) for u in upper}
+        if len(parents) != 1:
+            raise AdverbsError("the constrained chains must hang from one joint (the hips' parent)")
+        parent = parents.pop()
+        if parent < 0:
+            raise AdverbsError("the constrained chains must hang from a joint (a pelvis), not from the root itself")
+        above = tuple(skeleton.ancestors(parent)[::-1])
+        upper_offset = skeleton.offsets[middle]
+        end_offset = skeleton.offsets[ends]
+        hinge = np.empty((len(ends), 3))
+        for i, (m, o_u, o_e) in enumerate(zip(middle, upper_offset, end_offset)):
+            shin = quat.rotate(sample_rotations[:, m], o_e)  # (F, 3) in the hip's frame
+            axes = np.cross(o_u, shin)
+            total = axes.sum(axis=0)
+            if np.linalg.norm(total) < 1e-9:
+                raise AdverbsError(f"cannot find the knee axis of {skeleton.names[m]!r}: the leg never bends")
+            hinge[i] = total / np.linalg.norm(total)
+        return cls(
+            np.array(upper), np.array(middle), np.array(ends), above, hinge, upper_offset, end_offset, tip_offset
+        )
+
+
+def _checked(rotations, translations, targets, damping) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Copies of the pose and the targets as float arrays; non-finite targets and λ ≤ 0 are refused."""
+    targets = np.asarray(targets, dtype=float)
+    if not np.all(np.isfinite(targets)):
+        raise AdverbsError("IK targets must be finite (got NaN or infinity)")
+    if not (np.isfinite(damping) and damping > 0):
+        raise AdverbsError(f"IK damping must be a positive number of metres, got {damping}")
+    return np.array(rotations, dtype=float), np.array(translations, dtype=float), targets
+
+
+@dataclass
+class IKResult:
+    """The corrected pose and what could not be done."""
+
+    rotations: np.ndarray  # (..., J, 4)
+    translations: np.ndarray  # (..., J, 3)
+    root_drop: np.ndarray  # (...,) metres the root was lowered to bring targets within reach
+    unreachable: np.ndarray  # (..., L) bool: the target stayed out of reach even so
+    residual: np.ndarray  # (..., L) metres left between effector and target
+
+
+def solve_reference(
+    chains: LegChains,
+    rotations: np.ndarray,
+    translations: np.ndarray,
+    targets: np.ndarray,
+    tilts: np.ndarray | None = None,
+    iterations: int = ITERATIONS,
+    damping: float = DAMPING,
+    min_drop: np.ndarray | float = 0.0,
+) -> IKResult:
+    """Move each chain's effector to its target, changing only the chains' joints and the root height.
+
+    Parameters
+    ----------
+    rotations, translations : (..., J, 4), (..., J, 3)
+        Local pose from the verb.
+    targets : (..., L, 3)
+        Where each effector (the chain's end, or its tip) should be, world space.
+    tilts : (..., L, 3, 3), optional
+        Extra rotation of each effector's global orientation (the ground's slope); default none.
+    iterations, damping : DLS iterations and λ (metres).
+    min_drop : (...,), optional
+        Lower the root at least this much (metres), e.g. to let a root drop fade out smoothly.
+
+    This is the readable NumPy version, vectorized over the leading axes; :func:`solve` computes the
+    same with a compiled loop (numba), which is what run time uses.
+    """
+    rotations, translations, targets = _checked(rotations, translations, targets, damping)
+    lead = rotations.shape[:-2]
+
+    # The hips' parent frame, by FK along the few joints above them.
+    g = np.broadcast_to(np.eye(3), lead + (3, 3))
+    p = np.zeros(lead + (3,))
+    for j in chains.above:
+        outer = g  # the frame the pelvis's translation is given in, at the last step
+        p = p + (g @ translations[..., j, :, None])[..., 0]
+        g = g @ quat.to_matrix(rotations[..., j, :])
+    g_parent = g[..., None, :, :]  # (..., 1, 3, 3)
+    hip = p[..., None, :] + (g_parent @ translations[..., chains.upper, :, None])[..., 0]  # (..., L, 3)
+
+    l_upper = quat.to_matrix(rotations[..., chains.upper, :])  # (..., L, 3, 3)
+    l_middle = quat.to_matrix(rotations[..., chains.middle, :])
+    g_end = g_parent @ l_upper @ l_middle @ quat.to_matrix(rotations[..., chains.end, :])  # the foot's global frame
+    wanted_end = g_end if tilts is None else tilts @ g_end
+    targets = targets - (wanted_end @ chains.tip_offset[..., None])[..., 0]  # where the end must go
+
+    # Lower the root where a target is beyond reach: the smallest drop that brings every target in.
+    reach = chains.reach
+    delta = targets - hip
+    horizontal = np.sqrt(delta[..., 0] ** 2 + delta[..., 2] ** 2)
+    feasible = horizontal < reach
+    below = np.sqrt(np.maximum(reach**2 - horizontal**2, 0.0))
+    need = np.where(feasible, -delta[..., 1] - below, 0.0)  # how far the hip must come down
+    drop = np.minimum(np.maximum(np.maximum(need.max(axis=-1), 0.0), min_drop), MAX_DROP * reach.min())
+    if np.any(drop > 0):
+        down = np.swapaxes(outer, -1, -2)[..., :, 1]  # world up in the pelvis's parent frame
+        translations[..., chains.above[-1], :] -= drop[..., None] * down
+        hip = hip - drop[..., None, None] * np.array([0.0, 1.0, 0.0])
+
+    g_upper = g_parent @ l_upper
+    hinge, o_u, o_e = chains.hinge, chains.upper_offset, chains.end_offset
+    hinge_skew = np.stack(
+        [np.zeros(len(hinge)), -hinge[:, 2], hinge[:, 1], hinge[:, 2], np.zeros(len(hinge)), -hinge[:, 0],
+         -hinge[:, 1], hinge[:, 0], np.zeros(len(hinge))], axis=-1,
+    ).reshape(-1, 3, 3)  # fmt: skip
+    hinge_skew2 = hinge_skew @ hinge_skew
+    lam2 = damping * damping
+    for _ in range(iterations):
+        shin = (l_middle @ o_e[..., None])[..., 0]  # ankle from knee, in the hip's frame
+        knee = hip + (g_upper @ o_u[..., None])[..., 0]
+        leg = (g_upper @ shin[..., None])[..., 0]
+        end = knee + leg
+        r = targets - end
+        v = end - hip
+        c = np.cross((g_upper @ hinge[..., None])[..., 0], leg)  # knee column of J
+        # (J Jᵀ)⁻¹ = ((‖v‖² + λ²) I − v vᵀ + c cᵀ)⁻¹ by Sherman–Morrison twice.
+        alpha = np.sum(v * v, axis=-1, keepdims=True) + lam2
+
+        def b_inv(x, v=v, alpha=alpha):
+            return (x + v * (np.sum(v * x, axis=-1, keepdims=True) / lam2)) / alpha
+
+        br, bc = b_inv(r), b_inv(c)
+        y = br - bc * (np.sum(c * br, axis=-1, keepdims=True) / (1.0 + np.sum(c * bc, axis=-1, keepdims=True)))
+        hip_step = np.cross(v, y)  # Jᵀ y for the hip: −[v]×ᵀ y = v × y
+        knee_step = np.sum(c * y, axis=-1)
+        # A long step would leave the region where J describes the chain: shorten, keep the direction.
+        size = np.sqrt(np.sum(hip_step * hip_step, axis=-1) + knee_step * knee_step)
+        shrink = np.minimum(1.0, MAX_STEP / np.maximum(size, 1e-12))
+        hip_step = hip_step * shrink[..., None]
+        knee_step = knee_step * shrink
+        g_upper = quat.rotvec_matrix(hip_step) @ g_upper
+        # Knee about its hinge, flexion kept at or above min_flex.
+        shin_dir = (l_middle @ o_e[..., None])[..., 0]
+        flex = np.arctan2(np.sum(hinge * np.cross(o_u, shin_dir), axis=-1), np.sum(o_u * shin_dir, axis=-1))
+        new_flex = np.maximum(flex + knee_step, chains.min_flex)
+        turn = (new_flex - flex)[..., None, None]
+        l_middle = (np.eye(3) + np.sin(turn) * hinge_skew + (1.0 - np.cos(turn)) * hinge_skew2) @ l_middle
+
+    end = hip + (g_upper @ (o_u + (l_middle @ o_e[..., None])[..., 0])[..., None])[..., 0]
+    residual = np.linalg.norm(targets - end, axis=-1)
+    l_upper = np.swapaxes(g_parent, -1, -2) @ g_upper
+    l_end = np.swapaxes(g_upper @ l_middle, -1, -2) @ wanted_end
+    rotations[..., chains.upper, :] = quat.from_matrix(l_upper)
+    rotations[..., chains.middle, :] = quat.from_matrix(l_middle)
+    rotations[..., chains.end, :] = quat.from_matrix(l_end)
+    return IKResult(rotations, translations, drop, residual > MISS, residual)
+
+
+# ----- the compiled path -----------------------------------------------------------------------
+
+
+def solve(
+    chains: LegChains,
+    rotations: np.ndarray,
+    translations: np.ndarray,
+    targets: np.ndarray,
+    tilts: np.ndarray | None = None,
+    iterations: int = ITERATIONS,
+    damping: float = DAMPING,
+    min_drop: np.ndarray | float = 0.0,
+) -> IKResult:
+    """:func:`solve_reference`, compiled: the same algorithm and results, one pose at a time in a loop.
+
+    One creature's two feet take tens of microseconds instead of a couple of milliseconds of NumPy calls.
+    """
+    rotations, translations, targets = _checked(rotations, translations, targets, damping)
+    lead = rotations.shape[:-2]
+    j, n_legs = rotations.shape[-2], len(chains.end)
+    rot = np.ascontiguousarray(rotations.reshape(-1, j, 4))
+    trans = np.ascontiguousarray(translations.reshape(-1, j, 3))
+    tgt = np.ascontiguousarray(np.broadcast_to(targets, lead + (n_legs, 3)).reshape(-1, n_legs, 3))
+    if tilts is None:
+        tl = np.zeros((0, n_legs, 3, 3))
+    else:
+        tl = np.ascontiguousarray(np.broadcast_to(tilts, lead + (n_legs, 3, 3)).reshape(-1, n_legs, 3, 3))
+    drop = np.array(np.broadcast_to(np.asarray(min_drop, dtype=float), lead), dtype=float).reshape(-1)
+    residual = np.zeros((len(rot), n_legs))
+    _kernel().solve_batch(
+        rot, trans, tgt, tl, np.array(chains.above, dtype=np.int64), chains.upper, chains.middle, chains.end,
+        chains.hinge, chains.upper_offset, chains.end_offset, chains.tip_offset, chains.reach, chains.min_flex,
+        int(iterations), damping * damping, MAX_STEP, MAX_DROP * float(chains.reach.min()), drop, residual,
+    )  # fmt: skip
+    residual = residual.reshape(lead + (n_legs,))
+    return IKResult(
+        rot.reshape(rotations.shape), trans.reshape(translations.shape), drop.reshape(lead), residual > MISS, residual
+    )
+
+
+_KERNEL = None
+
+
+def _kernel():
+    """Compile the loop on first use (cached on disk by numba), so importing adverbs stays quick."""
+    global _KERNEL
+    if _KERNEL is None:
+        from . import _ik_kernel
+
+        _KERNEL = _ik_kernel
+    return _KERNEL

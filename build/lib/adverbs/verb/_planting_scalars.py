@@ -1,0 +1,44 @@
+"""Scalar rules of planted feet shared by the compiled loops: the planter's (:mod:`._planting_kernel`) and a verb
+graph's hold lookup (:mod:`adverbs.graph._time_kernel`) and decaying offsets (:mod:`adverbs.graph._blend_kernel`).
+
+Each mirrors a NumPy function of :mod:`adverbs.verb.planting` (named in its docstring), with the same arithmetic.
+A module of its own, so a graph's kernels need not load the planter's.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+SWING_LANDING = 0.3  # fraction of a swing (toe-off to the next landing) over which its least lift fades to none
+
+
+@njit(cache=True, inline="always")
+def smoothstep(x):  # pragma: no cover - compiled
+    """``planting._smoothstep``."""
+    x = min(max(x, 0.0), 1.0)
+    return x * x * (3.0 - 2.0 * x)
+
+
+@njit(cache=True, inline="always")
+def spring(x0, v0, t, halflife, ln2):  # pragma: no cover - compiled
+    """``planting._spring``: a critically damped offset ``x0`` with velocity ``v0``, ``t`` seconds on (``ln2``: log 2)."""
+    y = 2.0 * ln2 / halflife
+    return (x0 + (v0 + y * x0) * t) * math.exp(-y * t)
+
+
+@njit(cache=True)
+def hold_mode(cyclic, g, open_, times):  # pragma: no cover - compiled
+    """``planting.hold_modes`` and ``planting.swing_lifts`` of one hold ``times (3,)`` at generic time ``g``: open or
+    not, the turn back, and how much of the least swing lift applies."""
+    heel, close = times[1] - open_, times[2] - open_
+    if cyclic:
+        into = (g - open_) % 1.0
+        inside = into < close
+        swing = 1.0 if inside or close >= 1.0 else smoothstep((1.0 - (into - close) / (1.0 - close)) / SWING_LANDING)
+    else:
+        into = g - open_
+        inside = into >= 0.0 and (into < close or open_ + close >= 1.0 - 1e-9)
+        swing = 0.0  # a one-shot verb's swings have no next landing
+    return inside, smoothstep((into - heel) / max(close - heel, 1e-12)), swing

@@ -1,0 +1,212 @@
+"""The compiled loop behind :func:`adverbs.verb.sampling.sample`: clock → cycle → generic time → DOFs, query by query.
+
+What it does is written out, step by step with NumPy, in :func:`adverbs.verb.sampling.sample_reference`
+(and in :mod:`adverbs.interp.timewarp` and :mod:`adverbs.interp.bspline`); a test holds the two equal.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+GENERIC, CYCLIC, ONE_SHOT = 0, 1, 2  # what the times are: generic times, clock times of a cycle or of a one-shot
+CYCLE_EPS = 1e-9  # a time within this fraction of a cycle past its end still belongs to that cycle
+GROUPED = 64  # from this many queries on, they are grouped by B-spline segment into matrix products
+VELOCITIES = 3  # the first DOF columns are the root's velocities (vx, vz, turn): their seam fade keeps the integral
+
+
+@njit(cache=True)
+def sample_batch(
+    segments, weights, keytimes, generic, seam, goal, goal_columns, goal_window, rows, times, mode, window, out, cycles
+):  # pragma: no cover
+    """Write DOFs ``out (Q, D)`` and cycle indices ``cycles (Q,)`` for ``Q`` queries.
+
+    segments (NumCP, E, D)  control points / 6, by control point (the verb's ``segments``)
+    weights  (C, E)         cardinal weights of each creature's adverb point
+    keytimes (C, N)         each creature's keytimes (read for clock times only)
+    generic  (N,)           where the keytimes sit in generic time (the verb's ``generic_keytimes``)
+    seam     (C, D)         each creature's seam jump ``d(1) − d(0)`` (read for cycles only)
+    goal     (C, K)         each creature's goal offset on the DOF columns ``goal_columns (K,)`` (K = 0: none)
+    goal_window (3,)        generic times the goal's weight rises from, peaks at and falls to (see :mod:`.goal`)
+    rows     (Q,) int       the creature of each query
+    times    (Q,)           generic times (``mode`` GENERIC) or clock times in seconds
+    window   float          fraction of a cycle over which the seam is faded out
+
+    Each query's DOFs are ``Σ_k Σ_e b_k(t) w_e c_{e, seg+k} + fade · seam + reach · goal``: a product of its 4·E
+    blend weights with the 4·E rows of control points live at its segment. The root's velocity
+    columns fade with ``fade − 3 s (1 − s)`` instead (``s`` the fraction of the window): it starts at 1
+    too, so the velocities are continuous at the seam, but integrates to zero over the window, so the
+    blend adds no distance and no turn to a cycle (the plain fade added up to 25 deg per cycle). A few queries are done
+    one by one; many are grouped by segment so each group is one matrix product (BLAS).
+    """
+    ncp, ne, nd = segments.shape
+    nq = rows.shape[0]
+    segs = np.empty(nq, np.int64)
+    blend = np.empty((nq, 4))
+    fades = np.empty(nq)
+    vfades = np.empty(nq)
+    reach = np.zeros(nq)
+    ng = goal_columns.shape[0]
+    for q in range(nq):
+        segs[q], fades[q], vfades[q], cycles[q], t = _phase(
+            keytimes, generic, rows[q], times[q], mode, window, ncp, blend[q]
+        )
+        if ng > 0:
+            reach[q] = _goal_weight(goal_window, t)
+    nv = min(VELOCITIES, nd)
+    if nq < GROUPED:
+        for q in range(nq):
+            c = rows[q]
+            seg = segs[q]
+            for d in range(nd):
+                f = vfades[q] if d < nv else fades[q]
+                out[q, d] = f * seam[c, d] if f != 0.0 else 0.0
+            for e in range(ne):
+                w = weights[c, e]
+                if w == 0.0:
+                    continue
+                a0, a1, a2, a3 = blend[q, 0] * w, blend[q, 1] * w, blend[q, 2] * w, blend[q, 3] * w
+                s0, s1, s2, s3 = segments[seg, e], segments[seg + 1, e], segments[seg + 2, e], segments[seg + 3, e]
+                for d in range(nd):
+                    out[q, d] += a0 * s0[d] + a1 * s1[d] + a2 * s2[d] + a3 * s3[d]
+            if reach[q] != 0.0:
+                for k in range(ng):
+                    out[q, goal_columns[k]] += reach[q] * goal[c, k]
+        return
+    flat = np.ascontiguousarray(segments).reshape(ncp * ne, nd)
+    order = np.argsort(segs, kind="mergesort")
+    start = 0
+    while start < nq:
+        seg = segs[order[start]]
+        stop = start
+        while stop < nq and segs[order[stop]] == seg:
+            stop += 1
+        mixed = np.empty((stop - start, 4 * ne))
+        for i in range(stop - start):
+            q = order[start + i]
+            c = rows[q]
+            for k in range(4):
+                for e in range(ne):
+                    mixed[i, k * ne + e] = blend[q, k] * weights[c, e]
+        block = np.dot(mixed, flat[seg * ne : (seg + 4) * ne])
+        for i in range(stop - start):
+            q = order[start + i]
+            c = rows[q]
+            for d in range(nd):
+                f = vfades[q] if d < nv else fades[q]
+                out[q, d] = block[i, d] + f * seam[c, d] if f != 0.0 else block[i, d]
+            if reach[q] != 0.0:
+                for k in range(ng):
+                    out[q, goal_columns[k]] += reach[q] * goal[c, k]
+        start = stop
+
+
+@njit(cache=True, inline="always")
+def _phase(keytimes, generic, c, clock, mode, window, ncp, blend):  # pragma: no cover
+    """B-spline segment, seam fades (pose, velocities), cycle and generic time of one query; its basis weights (× 6)
+    into ``blend (4,)``."""
+    fade = 0.0
+    vfade = 0.0
+    cycle = 0
+    if mode == GENERIC:
+        t = clock
+    else:
+        nk = keytimes.shape[1]
+        end = keytimes[c, nk - 1]
+        if mode == CYCLIC:
+            cycle = max(int(math.ceil(clock / end - CYCLE_EPS)) - 1, 0)
+            local = clock - cycle * end
+        else:
+            local = clock
+        local = min(max(local, 0.0), end)
+        if cycle > 0:
+            s = min(max(local / (window * end), 0.0), 1.0)
+            fade = 1.0 - s * s * (3.0 - 2.0 * s)
+            vfade = fade - 3.0 * s * (1.0 - s)
+        m = 0
+        while m < nk - 2 and keytimes[c, m + 1] <= local:
+            m += 1
+        k0 = keytimes[c, m]
+        t = generic[m] + (generic[m + 1] - generic[m]) * (local - k0) / (keytimes[c, m + 1] - k0)
+    u = min(max(t, 0.0), 1.0) * (ncp - 3)
+    seg = min(int(math.floor(u)), ncp - 4)
+    x = u - seg
+    x2 = x * x
+    x3 = x2 * x
+    y = 1.0 - x
+    blend[0] = y * y * y
+    blend[1] = 3.0 * x3 - 6.0 * x2 + 4.0
+    blend[2] = -3.0 * x3 + 3.0 * x2 + 3.0 * x + 1.0
+    blend[3] = x3
+    return seg, fade, vfade, cycle, t
+
+
+@njit(cache=True, inline="always")
+def _goal_weight(window, t):  # pragma: no cover
+    """How much of the goal offset is added at generic time ``t``: :func:`adverbs.verb.goal.weight`, for one time."""
+    a, m, b = window[0], window[1], window[2]
+    if t < m:
+        s = min(max((t - a) / (m - a), 0.0), 1.0)
+    elif b <= m:
+        s = 1.0
+    else:
+        s = min(max((b - t) / (b - m), 0.0), 1.0)
+    return s * s * (3.0 - 2.0 * s)
+
+
+@njit(cache=True)
+def refresh_batch(
+    points, rows, centre, inv_scale, example_q, inv_alpha, radial_from_values, lin_pinv, log_intervals,
+    interval_bounds, seam_table, weights, keytimes, seam,
+):  # pragma: no cover  # fmt: skip
+    """Cardinal weights, keytimes and seam jump of the creatures ``rows (R,)`` at adverb points ``points (C, A)``.
+
+    ``w(p) = R(p) M⁻¹ (I − A A⁺) + A(p) A⁺`` (see :mod:`adverbs.interp.rbf`), the keytimes from the
+    log intervals ``K_{m+1} − K_m = exp(w · log ΔK)`` (each log interval clipped to ``interval_bounds (2, N-1)``)
+    and the seam ``w · (d(1) − d(0))``; written into
+    ``weights (C, E)``, ``keytimes (C, N)`` and ``seam (C, D)`` at those rows.
+    """
+    ne, na = example_q.shape
+    nk = log_intervals.shape[1] + 1
+    nd = seam_table.shape[1]
+    q = np.empty(na)
+    radial = np.empty(ne)
+    for i in range(rows.shape[0]):
+        c = rows[i]
+        for a in range(na):
+            q[a] = (points[c, a] - centre[a]) * inv_scale[a]
+        for e in range(ne):
+            s = 0.0
+            for a in range(na):
+                diff = example_q[e, a] - q[a]
+                s += diff * diff
+            r = math.sqrt(s) * inv_alpha[e]
+            x = max(2.0 - r, 0.0)
+            y = max(1.0 - r, 0.0)
+            radial[e] = (x * x * x - 4.0 * (y * y * y)) * (1.0 / 6.0)
+        w = weights[c]
+        for e in range(ne):
+            s = lin_pinv[0, e]
+            for a in range(na):
+                s += q[a] * lin_pinv[a + 1, e]
+            w[e] = s
+        for j in range(ne):
+            rj = radial[j]
+            if rj != 0.0:
+                for e in range(ne):
+                    w[e] += rj * radial_from_values[j, e]
+        keytimes[c, 0] = 0.0
+        for m in range(nk - 1):
+            s = 0.0
+            for e in range(ne):
+                s += w[e] * log_intervals[e, m]
+            s = min(max(s, interval_bounds[0, m]), interval_bounds[1, m])
+            keytimes[c, m + 1] = keytimes[c, m] + math.exp(s)
+        for d in range(nd):
+            seam[c, d] = 0.0
+        for e in range(ne):
+            we = w[e]
+            for d in range(nd):
+                seam[c, d] += we * seam_table[e, d]

@@ -1,0 +1,284 @@
+"""Goals: a joint put where its adverbs ask, by IK at a keytime, on top of the interpolated motion.
+
+A verb's adverbs may be a joint's position at a keytime (``joint_position`` measures: a reach's hand at
+its peak). Interpolation alone puts the joint near such a goal between examples, not on it; where the
+examples' limbs saturate (an arm already straight over the head) a blend of them misses by centimetres
+between examples and by decimetres past them. A *goal chain* (spec ``[goal] chain = [...]``: joints
+between the body root and the goal's joint) makes the verb correct that: for each adverb point, an
+offset ``Δ`` on the chain's rotation DOFs that puts the joint on the goal at the keytime, added to the
+motion with a weight that rises by smoothstep from 0 at the keytime before to 1 at the keytime and falls
+back to 0 at the keytime after (in generic time; at a one-shot verb's last keytime it stays 1), so the
+motion is unchanged at its other keytimes and stays smooth.
+
+``Δ`` is solved once per adverb point (when a creature's point changes, in
+:meth:`~adverbs.verb.sampling.SamplingState.update`), by Levenberg–Marquardt on the chain's DOFs at the
+keytime's pose: least squares on the goal error plus ``MU² |Δ|²``, from ``Δ = 0``. A reachable goal is met
+to :data:`TOLERANCE`; an unreachable one leaves the limb at its nearest reach rather than flinging it.
+The joint is placed as the ``joint_position`` measure reads it: the body root's path integrated from its
+velocities up to the keytime, in the character's frame at the start (x left, y up, z forward, from the
+body root's starting ground point). The solve is a deterministic function of the point (no warm start),
+so a creature's motion at a point never depends on the points it passed through.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import AdverbsError
+from ..kinematics import quat
+from ..kinematics.fk import forward_kinematics
+from ..motion.encoding import DofEncoding
+from ..motion.heading import heading
+from ._sampling_kernel import ONE_SHOT, sample_batch
+
+MU = 0.01  # metres per unit of DOF: how much the solve prefers a small offset to the last centimetres of reach
+ITERATIONS = 40  # Levenberg–Marquardt steps at most (a reachable goal takes 4-10)
+TOLERANCE = 1e-9  # metres: a goal this close is met (solved to rounding, so every path gets one answer)
+STEPS = 48  # steps of the root's integration from the start to the goal's keytime
+SETTLED = 1e-10  # a step that lowers the cost by less than this fraction ends the solve (out of reach: a minimum)
+AXES = "xyz"
+
+
+@dataclass(frozen=True, eq=False)
+class Goal:
+    """A verb's goal: ``joint`` at ``keytime`` where adverbs ``adverbs`` (its ``axes``, 0-2 for x, y, z) say.
+
+    ``chain`` names the joints whose rotation DOFs ``columns (K,)`` the correction moves; ``window (3,)``
+    is the generic times of the keytime before, the keytime and the keytime after (the last equal to the
+    keytime's own when the correction holds to the end of a one-shot verb).
+    """
+
+    chain: tuple[str, ...]
+    joint: int
+    keytime: int
+    adverbs: tuple[int, ...]
+    axes: tuple[int, ...]
+    columns: np.ndarray
+    window: np.ndarray
+    joints: np.ndarray  # (len(chain),) the chain's joint indices; its columns are three per joint, in this order
+
+    @classmethod
+    def build(
+        cls,
+        chain: Sequence[str],
+        adverbs: Sequence,
+        encoding: DofEncoding,
+        generic: np.ndarray,
+        cyclic: bool,
+    ) -> Goal:
+        """The goal of a verb with goal chain ``chain``, adverbs ``adverbs`` (with their measures) and generic
+        keytimes ``generic (N,)``; an :class:`~adverbs.errors.AdverbsError` starting ``goal:`` names what is wrong."""
+        skel = encoding.skeleton
+        chain = tuple(chain)
+        if encoding.kind != "logquat":
+            raise AdverbsError(f"goal: a goal chain needs the logquat encoding (the default), not {encoding.kind!r}")
+        if not chain or not all(isinstance(j, str) for j in chain):
+            raise AdverbsError(f"goal: chain must be a list of one or more joint names, got {chain!r}")
+        goal_adverbs = [
+            i for i, a in enumerate(adverbs) if a.measure is not None and a.measure.get("kind") == "joint_position"
+        ]
+        if not goal_adverbs:
+            raise AdverbsError(
+                "goal: a goal chain needs adverbs measured as a joint's position (measure kind 'joint_position'); "
+                "this verb has none"
+            )
+        first = adverbs[goal_adverbs[0]]
+        for i in goal_adverbs[1:]:
+            for key in ("joint", "keytime"):
+                if adverbs[i].measure[key] != first.measure[key]:
+                    raise AdverbsError(
+                        f"goal: adverbs {first.name!r} and {adverbs[i].name!r} measure different {key}s "
+                        f"({first.measure[key]!r}, {adverbs[i].measure[key]!r}); a goal is one joint at one keytime"
+                    )
+        axes = [AXES.index(adverbs[i].measure["axis"]) for i in goal_adverbs]
+        if len(set(axes)) != len(axes):
+            raise AdverbsError(f"goal: two adverbs measure axis {AXES[max(axes, key=axes.count)]!r} of the goal")
+        joint = skel.index(first.measure["joint"])
+        n = len(generic)
+        k = int(first.measure["keytime"])
+        if k == 0:
+            raise AdverbsError(
+                "goal: the goal is at keytime 0, where the character's frame is taken; put it at a later keytime"
+            )
+        if cyclic and k == n - 1:
+            raise AdverbsError(f"goal: keytime {k} ends the cycle (it is keytime 0 of the next); use keytime 0..{n - 2}")
+        above = set(skel.ancestors(joint))
+        root = encoding.body_root
+        columns, joints = [], []
+        for name in chain:
+            if name not in skel.names:
+                raise AdverbsError(f"goal: chain names joint {name!r}, which the skeleton does not have")
+            j = skel.index(name)
+            if j not in above or j == root or j in skel.ancestors(root):
+                raise AdverbsError(
+                    f"goal: chain joint {name!r} is not between the body root {skel.names[root]!r} and the goal's "
+                    f"joint {skel.names[joint]!r}: it must be above {skel.names[joint]!r} and below "
+                    f"{skel.names[root]!r} (the body root carries the legs)"
+                )
+            joints.append(j)
+            columns.extend(encoding.names.index(f"{name}.{a}") for a in ("rx", "ry", "rz"))
+        if len(set(chain)) != len(chain):
+            raise AdverbsError(f"goal: chain names a joint twice: {chain!r}")
+        after = generic[k + 1] if k + 1 < n else generic[k]
+        window = np.array([generic[k - 1], generic[k], after])
+        return cls(
+            chain, joint, k, tuple(goal_adverbs), tuple(axes), np.array(columns, dtype=np.int64), window, np.array(joints)
+        )
+
+
+def weight(goal: Goal, t: np.ndarray) -> np.ndarray:
+    """How much of the offset is added at generic times ``t (...)``: smoothstep up over the window's first
+    half, down over its second (held at 1 past the keytime when the window ends there)."""
+    a, m, b = goal.window
+    t = np.asarray(t, dtype=float)
+    up = np.clip((t - a) / (m - a), 0.0, 1.0)
+    down = np.ones_like(t) if b <= m else np.clip((b - t) / (b - m), 0.0, 1.0)
+    s = np.where(t < m, up, down)
+    return s * s * (3.0 - 2.0 * s)
+
+
+def misses(verb) -> np.ndarray:
+    """What the uncorrected motion of each example misses its own goal by, ``(E, M)`` metres (``M`` goal axes).
+
+    The B-spline fit and the goal's model (the root integrated in :data:`STEPS` steps) differ from the
+    measure on the captured frames by a millimetre or so. :func:`solve` aims at the asked goal plus these
+    misses, blended by the point's weights, so that at the examples the offset is exactly zero and each
+    example is reproduced as captured.
+    """
+    e = len(verb.examples)
+    model = _Model(verb, verb.goal, np.eye(e), verb.keytimes_table)
+    at, _ = model.reached(np.arange(e), np.zeros((e, len(verb.goal.columns))))
+    return at - verb.points[:, list(verb.goal.adverbs)]
+
+
+class _Model:
+    """Where the goal joint is, as the ``joint_position`` measure reads it, for R adverb points (their weights
+    ``(R, E)`` and keytimes ``(R, N)``) with offsets on the goal chain: the uncorrected pose at the keytime, the
+    body root's path integrated to it, the character's frame at the start."""
+
+    def __init__(self, verb, goal: Goal, weights: np.ndarray, keytimes: np.ndarray):
+        r = len(weights)
+        enc = self.encoding = verb.encoding
+        self.parents, self.goal = verb.skeleton.parents, goal
+        grid = np.linspace(0.0, 1.0, STEPS + 1)
+        weights = np.ascontiguousarray(weights, dtype=float)
+        keytimes = np.ascontiguousarray(keytimes, dtype=float)
+        d = np.empty((r, STEPS + 1, verb.num_dofs))
+        self.root = np.empty((r, 3))  # the body root at the keytime
+        no_seam, no_columns, rows = np.zeros((r, 0)), np.zeros(0, dtype=np.int64), np.empty(STEPS + 1, dtype=np.int64)
+        for i in range(r):  # one creature at a time (fewer queries than the kernel groups): a batch gives what one does
+            rows[:] = i
+            sample_batch(
+                verb.segments, weights, keytimes, verb.generic_keytimes, no_seam, no_seam, no_columns, goal.window,
+                rows, keytimes[i, goal.keytime] * grid, ONE_SHOT, 0.0, d[i], np.empty(STEPS + 1, np.int64),
+            )  # fmt: skip
+            self.root[i] = enc.root_path(d[i], STEPS / keytimes[i, goal.keytime])[-1]
+        rot0, trans0 = enc.decode_pose(d[:, 0], np.zeros((r, 3)))
+        gpos0, grot0 = forward_kinematics(self.parents, rot0, trans0)
+        body = enc.body_root
+        self.to_local = quat.about_y(-heading(grot0[:, body], enc.lateral))
+        self.origin = gpos0[:, body] * np.array([1.0, 0.0, 1.0])
+        self.pose = d[:, -1]
+
+    def reached(self, sel: np.ndarray, delta: np.ndarray, jacobian: bool = False) -> tuple[np.ndarray, np.ndarray | None]:
+        """The goal joint's measured coordinates ``(R', len(axes))`` of rows ``sel`` with offsets ``delta (R', K)``
+        and (``jacobian``) their derivatives ``(R', len(axes), K)`` with respect to the offsets.
+
+        A chain joint's rotation is ``ref · exp(v)``; moving ``v`` by ``δ`` turns it by ``Jr(v) δ`` in its own
+        frame (``Jr`` the right Jacobian of the exponential map): about world axes ``ω_k`` through the joint,
+        which swing the goal joint ``p`` by ``ω_k × (p − o_k)``. Analytic, so two paths whose weights differ
+        by rounding solve to the same offsets (a finite-difference Jacobian multiplied that rounding a
+        million times).
+        """
+        g = self.goal
+        dofs = self.pose[sel].copy()
+        dofs[:, g.columns] += delta
+        rot, trans = self.encoding.decode_pose(dofs, self.root[sel])
+        gpos, grot = forward_kinematics(self.parents, rot, trans)
+        to_local = self.to_local[sel]
+        axes = list(g.axes)
+        at = quat.rotate(to_local, gpos[:, g.joint] - self.origin[sel])[:, axes]
+        if not jacobian:
+            return at, None
+        turns = np.concatenate(
+            [
+                quat.rotate(grot[:, j, None], _right_jacobian(dofs[:, g.columns[3 * i : 3 * i + 3]]).transpose(0, 2, 1))
+                for i, j in enumerate(g.joints)
+            ],
+            axis=1,
+        )  # (R', K, 3): ω_k
+        arm = gpos[:, g.joint, None] - np.repeat(gpos[:, g.joints], 3, axis=1)  # (R', K, 3): p − o_k
+        return at, quat.rotate(to_local[:, None], np.cross(turns, arm))[..., axes].transpose(0, 2, 1)
+
+
+def _right_jacobian(v: np.ndarray) -> np.ndarray:
+    """``Jr(v) (..., 3, 3)`` of rotation vectors ``v (..., 3)``: ``exp(v + δ) ≈ exp(v) exp(Jr(v) δ)``."""
+    theta2 = np.sum(v * v, axis=-1)
+    theta = np.sqrt(theta2)
+    small = theta < 1e-4
+    t = np.where(small, 1.0, theta)
+    a = np.where(small, 0.5 - theta2 / 24.0, (1.0 - np.cos(t)) / (t * t))  # (1 − cos θ) / θ²
+    b = np.where(small, 1.0 / 6.0 - theta2 / 120.0, (t - np.sin(t)) / (t * t * t))  # (θ − sin θ) / θ³
+    k = np.zeros(v.shape[:-1] + (3, 3))
+    k[..., 0, 1], k[..., 0, 2], k[..., 1, 2] = -v[..., 2], v[..., 1], -v[..., 0]
+    k[..., 1, 0], k[..., 2, 0], k[..., 2, 1] = v[..., 2], -v[..., 1], v[..., 0]
+    return np.eye(3) - a[..., None, None] * k + b[..., None, None] * (k @ k)
+
+
+def solve(verb, goal: Goal, weights: np.ndarray, keytimes: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Offsets ``(R, K)`` on the goal chain's DOFs that put the goal joint where ``points (R, A)`` ask.
+
+    ``weights (R, E)`` and ``keytimes (R, N)`` are those of the points (from the sampling state). The aim is
+    the asked goal plus the examples' own :func:`misses` blended by ``weights``: zero offset at the examples.
+    """
+    k = len(goal.columns)
+    whole = np.zeros((len(points), k))
+    # Points so far out that the motion degenerates (keytimes that overflow or collapse) get no offset: the
+    # synthesis refuses them, and a run-time creature must not be stopped by them.
+    with np.errstate(all="ignore"):
+        sane = np.all(np.isfinite(keytimes), axis=1) & np.all(np.diff(keytimes, axis=1) > 0, axis=1)
+        sane &= np.all(np.isfinite(weights), axis=1) & (keytimes[:, -1] <= 1e6)
+        if sane.any():
+            whole[sane] = _solve(verb, goal, weights[sane], keytimes[sane], np.asarray(points, dtype=float)[sane])
+    whole[~np.isfinite(whole).all(axis=1)] = 0.0
+    return whole
+
+
+def _solve(verb, goal: Goal, weights: np.ndarray, keytimes: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """:func:`solve` for points whose motion has not degenerated."""
+    r = len(points)
+    k = len(goal.columns)
+    out = np.zeros((r, k))
+    model = _Model(verb, goal, weights, keytimes)
+    target = np.asarray(points, dtype=float)[:, list(goal.adverbs)] + weights @ verb.goal_misses
+    res = target - model.reached(np.arange(r), out)[0]
+    cost = np.sum(res * res, axis=1)  # with MU² |Δ|², what the solve minimizes
+    lam = np.full(r, 1e-3)
+    active = np.sqrt(cost) > TOLERANCE
+    eye = np.eye(k)
+    for _ in range(ITERATIONS):
+        sel = np.flatnonzero(active)
+        if len(sel) == 0:
+            break
+        delta = out[sel]
+        _, jac = model.reached(sel, delta, jacobian=True)
+        jt = jac.transpose(0, 2, 1)
+        a = jt @ jac + (MU * MU + lam[sel])[:, None, None] * eye
+        step = np.linalg.solve(a, (jt @ res[sel, :, None]) - MU * MU * delta[..., None])[..., 0]
+        trial = target[sel] - model.reached(sel, delta + step)[0]
+        trial_cost = np.sum(trial * trial, axis=1) + MU * MU * np.sum((delta + step) ** 2, axis=1)
+        better = trial_cost < cost[sel]
+        settled = better & (cost[sel] - trial_cost <= SETTLED * cost[sel])
+        took = sel[better]
+        out[took] = delta[better] + step[better]
+        res[took] = trial[better]
+        cost[took] = trial_cost[better]
+        lam[took] = np.maximum(lam[took] / 3.0, 1e-9)
+        lam[sel[~better]] *= 4.0
+        # Done: met, or no step makes it better (an unreachable goal at its nearest reach).
+        small = np.sqrt(np.sum(step * step, axis=1)) < 1e-12
+        active[sel] = (np.sqrt(np.sum(res[sel] ** 2, axis=1)) > TOLERANCE) & ~small & ~settled & (lam[sel] < 1e8)
+    return out

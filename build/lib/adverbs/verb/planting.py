@@ -1,0 +1,895 @@
+"""Planted feet: a verb's constraints enforced on its motion, one frame at a time (§3.3).
+
+:class:`FootPlanter` keeps, for each of ``C`` creatures and each constrained effector, what the
+planting needs to remember between frames, and :meth:`FootPlanter.step` advances them all by one
+frame. Offline planting (:func:`plant_feet`, :func:`plant_feet_many`) is the same planter run over
+every frame of a clip, then one batched IK solve: it gives the same motion as feeding the frames
+one by one (``tests/test_feet.py``).
+
+Per effector, with ``g`` the frame's generic time and :class:`~adverbs.verb.constraints.Hold` ``h``
+(its times blended at the creature's adverb point from the examples' own contacts):
+
+* **Heel strike** (``g`` reaches ``h.open``): the ankle is held where it is shown, at its contact
+  height above the floor, while the foot rolls down as the verb turns it. A foot that lands on its
+  ball (a run) skips this.
+* **Foot flat** (the ball reaches the floor): the ball is held where it is, ``h.height`` (its height
+  above the sole, from the examples) above the floor under it — the floor, not the verb, says how high
+  a planted foot is — and so is the foot's orientation, so the heel stays where it landed.
+* **Roll-off** (from ``h.heel_off``, or as soon as the verb lifts the ball off its own level): the foot
+  turns back to the verb's orientation about the held ball (smoothstep), the ball rising as the verb
+  raises it; it is let go at ``h.close`` (toe-off), or once the verb has lifted it ``LIFTS_OFF``.
+* **Free** (swing, flight): the verb's effector, lowered near the ground by how far the verb's stance
+  hovered over its floor (at extrapolated adverbs the verb can lift the whole stance), never below the
+  floor plus the contact height. The verb's level is the lowest its foot got over the hold (rolling off
+  included: a toe joint dips as the foot pivots on its ball), so the foot clears the ground by as much
+  as the verb's own does, and a rolling ball rises over that level as the verb's rises over it. A cyclic
+  verb's released ball also swings at least ``SWING_LIFT`` (3 cm) over its contact height, joined smoothly
+  (:func:`_smooth_max`) and faded out over the last ``SWING_LANDING`` (30%) of the swing before the next
+  landing (:func:`swing_lifts`): where the capture drags its toe through the swing (a pivot turn, a shuffling
+  jog), the foot is lifted off the floor instead of sliding along it; where the verb's swing is higher, the
+  lift changes nothing.
+* **Switches are inertialized**: the gap between where the foot was shown and where the new rule puts
+  it is an offset that decays to zero as a critically damped spring (``x(t) = (x₀ + (v₀ + y x₀) t)
+  e^{−y t}``). At release ``v₀`` cancels the verb's horizontal foot velocity, so the foot leaves from
+  rest, and the vertical part decays faster than the horizontal one, so it lifts before it travels; the
+  turn the foot still had to make decays the same way. At landing nothing slides: only the height settles.
+  A released foot's height offset is kept over the floor under where it is shown: up a slope, the
+  horizontal offset carries it over other ground than the verb's foot is over.
+
+The legs are then solved by :func:`adverbs.kinematics.ik.solve` with each foot's target and wanted
+orientation. The root is lowered where a leg cannot reach its target and eases back up (``DROP_HALFLIFE``).
+Heights follow the floor: a point the verb carries ``h`` above its own flat ground is put ``h`` above
+the floor under it; the pelvis rides the floor under itself, or under the lower foot up a slope; on a
+floor that is not flat the feet are tilted to the surface.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import AdverbsError
+from ..interp import timewarp
+from ..kinematics import ik, quat
+from ..kinematics.fk import forward_kinematics
+from ..kinematics.floor import FlatFloor, Floor, HeightMapFloor, SlopeFloor, tilt
+from ..motion.clip import Clip
+from ..motion.contacts import runs
+from ._planting_scalars import SWING_LANDING
+from .tables import Verb
+
+LIFT_HALFLIFE = 0.015  # seconds: the vertical part of a released foot's offset halves this fast
+SWING_HALFLIFE = 0.1  # seconds: the horizontal part, slower, so the foot lifts before it travels
+DROP_HALFLIFE = 0.1  # seconds: a lowered root comes back up no faster than this decay
+SETTLE_HALFLIFE = 0.03  # seconds: a landing foot's height settles onto the floor this fast
+_LN2 = float(np.log(2.0))
+
+
+def _spring(x0: np.ndarray, v0: np.ndarray, t: np.ndarray, halflife: np.ndarray | float) -> np.ndarray:
+    """Critically damped decay of an offset ``x0`` with velocity ``v0`` after ``t`` seconds."""
+    y = 2.0 * _LN2 / halflife
+    return (x0 + (v0 + y * x0) * t) * np.exp(-y * t)
+
+
+_HALFLIVES = np.array([SWING_HALFLIFE, LIFT_HALFLIFE, SWING_HALFLIFE])
+_AT_REST = np.array([1.0, 0.0, 1.0])  # which parts of the verb's velocity a released foot starts without
+FREE, HEEL, BALL = 0, 1, 2  # what a foot is doing: swinging, landed on its heel, on its ball
+SWING_CLEARANCE = 0.1  # metres above the verb's own contact level where its swing is no longer lowered
+LIFTED = 0.02  # metres above its contact height: a released foot this high has left the ground
+SWING_LIFT = 0.03  # metres: the least a cyclic verb's swing lifts a released ball over its contact height
+LIFT_BLEND = 0.02  # metres: within this of the least lift, the verb's swing joins it smoothly (no kink)
+LIFTS_OFF = 0.02  # metres: a rolling foot's ball this far above its contact level is lifting off
+STILL_DOWN = 0.005  # metres: a held ball the verb raises less than this over its level is still down
+TOE_LANDS = 0.003  # metres: a rolling foot's ball this close to its contact height has landed
+
+
+@dataclass
+class PlantingReport:
+    """What planting did: hold phases per effector (frames ``[start, stop)``), and what it could not do."""
+
+    phases: list[list[tuple[int, int]]]
+    root_drop: np.ndarray  # (F,) metres
+    unreachable: int  # frames × effectors whose target stayed out of reach
+    warnings: list[str] = field(default_factory=list)
+    flat: list[list[tuple[int, int]]] = field(default_factory=list)  # heel and ball held (foot flat)
+    heel: list[list[tuple[int, int]]] = field(default_factory=list)  # heel held (heel strike to heel-off)
+
+
+class FootPlanter:
+    """Planted feet for ``creatures`` creatures of one verb, advanced one frame at a time.
+
+    State per creature and effector ``(C, L)``: what the foot is doing (``mode``: :data:`FREE`,
+    :data:`HEEL`, :data:`BALL`) and how far it has rolled off (``turn``), its target and held
+    orientation, the offset being decayed (start, velocity, time since), the turn left over from its
+    release, the verb's contact level (``hover``) and the verb's effector position in the previous frame
+    (for its velocity); per creature, the root drop. ``weights (C, E)`` set the hold times (the
+    examples' own, blended at each creature's adverb point); without them, their mean.
+
+    :meth:`targets`, :meth:`drop_for` and :meth:`step` run a compiled loop (:mod:`._planting_kernel`) on a
+    flat floor, a slope or a height map; their ``*_reference`` methods are the readable NumPy versions, which
+    any other floor (a :class:`~adverbs.kinematics.floor.FunctionFloor`) and ``compiled=False`` use. The two
+    agree to rounding (``tests/test_planting_kernel.py``).
+    """
+
+    def __init__(
+        self,
+        verb: Verb,
+        creatures: int = 1,
+        floor: Floor | None = None,
+        weights: np.ndarray | None = None,
+        compiled: bool = True,
+    ):
+        if not verb.constraints:
+            raise AdverbsError(f"verb {verb.name!r} has no constraints: nothing to plant")
+        self.verb = verb
+        self.floor = FlatFloor(verb.floor) if floor is None else floor
+        self.chains = verb.leg_chains
+        self.tips = np.array(effector_joints(verb))
+        self.heights = np.array([np.nan if h.height is None else h.height for h in verb.holds])
+        self.opens = np.array([h.open for h in verb.holds])
+        self.heel_heights = np.array([np.nan if h.heel_height is None else h.heel_height for h in verb.holds])
+        c, n = int(creatures), len(verb.holds)
+        if c < 1:
+            raise AdverbsError(f"creatures must be at least 1, got {creatures}")
+        self.creatures = c
+        if weights is None:  # the holds' mean times
+            self.times = np.tile([h.times for h in verb.holds], (c, 1, 1))
+        else:
+            self.set_weights(weights)
+        self.started = False
+        self.mode = np.full((c, n), FREE)
+        self.turn = np.zeros((c, n))
+        self.target = np.zeros((c, n, 3))
+        self.held_rot = np.tile(np.eye(3), (c, n, 1, 1))
+        self.offset = np.zeros((c, n, 3))
+        self.offset_vel = np.zeros((c, n, 3))
+        self.since = np.zeros((c, n, 3))
+        self.spent = np.zeros((c, n), dtype=bool)  # this hold's foot was let go early: the verb lifted it
+        self.drop = np.zeros(c)  # how far the root is lowered (decaying once no leg needs it)
+        self.rising = np.zeros((c, n))  # how far a rolling ball is raised with the verb's
+        self.rel_vec = np.zeros((c, n, 3))  # a released foot's orientation relative to the verb's (rotation vector)
+        self.rot_since = np.full((c, n), 1e9)  # seconds since then (long ago: nothing left)
+        self.settle = np.zeros((c, n), dtype=bool)  # the offset being decayed is a landing's
+        self.hover = np.zeros((c, n))  # the verb's contact level, lowering the free foot
+        self.ground = np.zeros((c, n))  # its lowest point over the current hold: the next hover
+        self.prev_free = np.zeros((c, n, 3))
+        kernel_floor = _compiled_floor(self.floor) if compiled else None
+        self._compiled = None if kernel_floor is None else _Compiled(self, kernel_floor)
+
+    # ----- the state machine ------------------------------------------------------------------
+    def set_weights(self, weights: np.ndarray) -> None:
+        """Hold times at the creatures' cardinal weights ``(C, E)`` (the examples' own, blended)."""
+        self.times = self.verb.hold_times(np.broadcast_to(weights, (self.creatures, len(self.verb.examples))))
+
+    def _tilt(self, xz: np.ndarray) -> np.ndarray:
+        """The floor's tilt ``(..., 3, 3)`` under points ``xz (..., 2)`` (identity on a flat floor)."""
+        if self.floor.is_flat:
+            return np.broadcast_to(np.eye(3), xz.shape[:-1] + (3, 3))
+        return tilt(self.floor.normal(xz))
+
+    def targets(
+        self,
+        free_pos: np.ndarray,
+        free_rot: np.ndarray,
+        generic: np.ndarray | None,
+        dt: float | np.ndarray,
+        phases: tuple[np.ndarray, ...] | None = None,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`targets_reference`, compiled where the floor allows."""
+        if self._compiled is None:
+            return self.targets_reference(free_pos, free_rot, generic, dt, phases)
+        return self._compiled.targets(free_pos, free_rot, generic, dt, phases)
+
+    def targets_reference(
+        self,
+        free_pos: np.ndarray,
+        free_rot: np.ndarray,
+        generic: np.ndarray | None,
+        dt: float | np.ndarray,
+        phases: tuple[np.ndarray, ...] | None = None,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Advance the state by one frame; the effectors' targets ``(C, L, 3)`` and wanted foot orientations ``(C, L, 3, 3)``.
+
+        ``free_pos (C, L, 3)`` and ``free_rot (C, L, 3, 3)``: where the verb puts each effector and the
+        global orientation of its foot (the chain's end) this frame; ``generic (C,)``: the frame's
+        generic time; ``dt``: seconds since the previous frame (one for all, or ``(C,)``). The orientations
+        include the floor's tilt. ``phases``: instead of ``generic``, whether each hold is open ``(C, L)``, how
+        far each foot has rolled off ``(C, L)`` and, optionally, how much of the least swing lift applies
+        ``(C, L)`` (:func:`swing_lifts`; none if not given), from elsewhere (a verb graph's blend of two verbs).
+        """
+        verb, floor, tip = self.verb, self.floor, self.chains.tip_offset
+        follows = np.broadcast_to(np.isnan(self.heights), self.mode.shape)  # effectors that keep the verb's height
+        height = np.where(follows, 0.0, self.heights)
+        if phases is None:
+            g = np.asarray(generic, dtype=float)[:, None]
+            inside, turn = hold_modes(self.verb.cyclic, g, self.opens, self.times)
+            swing = swing_lifts(self.verb.cyclic, g, self.opens, self.times)
+        else:
+            inside, turn = (np.asarray(x) for x in phases[:2])
+            swing = np.asarray(phases[2], dtype=float) if len(phases) > 2 else np.zeros(self.mode.shape)
+        # How far the verb's effector is above its contact height (its own floor at these adverbs).
+        lift = np.where(follows, 0.0, free_pos[..., 1] - verb.floor - height)
+        if not self.started:  # the verb's level from the feet that are down now, else none
+            down = np.where(inside, lift, np.inf).min(axis=1, keepdims=True)
+            self.hover[:] = np.where(np.isfinite(down), down, 0.0)
+            self.ground[:] = np.inf
+            self.prev_free[:] = free_pos
+            self.started = True
+        dt = np.broadcast_to(np.asarray(dt, dtype=float), (self.creatures,))[:, None, None]
+        self.since += dt
+        vel = (free_pos - self.prev_free) / np.where(dt > 0, dt, np.inf)
+        # A ball the verb lifts off its level rolls the foot off it too, whatever the examples' heel-off says.
+        # Held, over the level this hold has found so far (the lowest the verb's foot got since it landed,
+        # rolling off included): the ball rises as far over it as the verb's does, and leaves at that height.
+        level = np.where((self.mode != FREE) & np.isfinite(self.ground), np.minimum(self.ground, lift), self.hover)
+        raised = _lowered(lift, level)
+        turn = np.where(self.mode == BALL, np.maximum(turn, _smoothstep((raised - STILL_DOWN) / (LIFTS_OFF - STILL_DOWN))), turn)
+        # A rolling foot the verb already lifts off (its ball LIFTS_OFF above its own contact level) is let go
+        # before the hold's toe-off, and not held again until the next hold.
+        self.spent &= inside
+        self.spent |= (self.mode == BALL) & (turn > 0.0) & (raised >= LIFTS_OFF)
+        inside = inside & ~self.spent
+        opening, closing = inside & (self.mode == FREE), ~inside & (self.mode != FREE)
+        self.hover = np.where(closing & np.isfinite(self.ground), self.ground, self.hover)
+        raised = np.where(closing, _lowered(lift, self.hover), raised)  # the let-go feet's new level
+        # Where the free rule puts the foot: the verb's, lowered by its hover, on the floor, and at least the
+        # swing's least lift over it (a verb that drags its foot through the swing has it lifted).
+        base = free_pos.copy()
+        least = np.where(follows | inside, -np.inf, SWING_LIFT * swing)  # (not for a foot about to land)
+        base[..., 1] = floor.height(free_pos[..., [0, 2]]) + height + _smooth_max(raised, least, LIFT_BLEND)
+        free_wanted = self._tilt(base[..., [0, 2]]) @ free_rot
+        self.rot_since += dt[..., 0]
+        # Rolling off: the ball rises as the verb's does over its contact level, weighted in as the heel lifts.
+        self.rising = np.where(follows, 0.0, np.maximum(raised, 0.0) * turn)
+        shown, wanted = self._shown(base, height, follows, free_rot, free_wanted, self.turn)  # before anything switches
+        if closing.any():  # let go: what the foot's orientation had still to turn decays from here
+            rel = wanted[closing] @ np.swapaxes(free_wanted[closing], -1, -2)
+            q = quat.from_matrix(rel)
+            self.rel_vec[closing] = quat.log(np.where(q[..., 3:] < 0.0, -q, q))  # the short way round
+            self.rot_since[closing] = 0.0
+            self.offset[closing] = shown[closing] - base[closing]  # let go from where it was shown
+            # Its height as a height over the floor under it: on a slope the decaying horizontal offset
+            # carries the foot over other ground than the verb's foot is over.
+            self.offset[closing, 1] -= self._ground_shift(shown, base)[closing]
+            self.offset_vel[closing] = -vel[closing] * _AT_REST  # leaves from rest horizontally, rises as the verb lifts it
+            self.since[closing] = 0.0
+            self.settle[closing] = False
+            self.mode[closing] = FREE
+        # A landing foot rolls down from its heel unless its ball is down already (a run's forefoot strike)
+        # or the heel is lifting (a foot found down in mid-stance when planting starts).
+        has_heel = ~follows & ~np.isnan(self.heel_heights)
+        low = shown[..., 1] - floor.height(shown[..., [0, 2]]) - height <= TOE_LANDS
+        rocking = opening & has_heel & ~low & (turn == 0.0)
+        opening &= low | (turn == 0.0)  # found rolling off with the ball already up: it is lifting, leave it free
+        if rocking.any():  # heel strike: the ankle is held where it is shown, at its height over the floor
+            ankle = shown[rocking] - np.einsum("nij,nj->ni", free_wanted[rocking], np.broadcast_to(tip, shown.shape)[rocking])
+            self._land(rocking, ankle, np.broadcast_to(self.heel_heights, rocking.shape)[rocking])
+            self.mode[rocking] = HEEL
+            shown, _ = self._shown(base, height, follows, free_rot, free_wanted, turn)
+        # The ball is down once the rolling foot brings it to the floor (or, at the latest, at heel-off).
+        low = shown[..., 1] - floor.height(shown[..., [0, 2]]) - height <= TOE_LANDS
+        balls = (opening & ~rocking) | ((self.mode == HEEL) & (low | (turn > 0.0)))
+        if balls.any():  # the ball and the foot's orientation are held
+            self._land(balls, shown[balls], np.where(follows[balls], np.nan, height[balls]))
+            self.held_rot[balls] = self._released_rot(free_rot)[balls]
+            self.mode[balls] = BALL
+        # The verb's own level at these adverbs: the lowest its foot gets while held, taken at toe-off.
+        held = self.mode != FREE
+        self.ground = np.where(opening, np.inf, self.ground)
+        self.ground = np.where(held, np.minimum(self.ground, lift), self.ground)
+        self.turn = turn
+        self.prev_free[:] = free_pos
+        shown, wanted = self._shown(base, height, follows, free_rot, free_wanted, turn)
+        return shown, wanted
+
+    def _land(self, which: np.ndarray, point: np.ndarray, height: np.ndarray) -> None:
+        """Hold ``point (n, 3)`` for the effectors in ``which``: where it is, ``height`` above the floor (NaN:
+        where it is); the height it had is an offset that settles."""
+        target = point.copy()
+        level = self.floor.height(point[:, [0, 2]]) + np.where(np.isnan(height), 0.0, height)
+        target[:, 1] = np.where(np.isnan(height), point[:, 1], level)
+        self.target[which] = target
+        self.offset[which] = 0.0
+        self.offset[which, 1] = np.maximum(point[:, 1] - target[:, 1], 0.0)  # settles down, never up from below
+        self.offset_vel[which] = 0.0
+        self.since[which] = 0.0
+        self.settle[which] = True
+
+    def _released_rot(self, free_rot: np.ndarray) -> np.ndarray:
+        """The verb's foot orientations turned by what is left of the turn each had when it was let go."""
+        k = _spring(1.0, 0.0, self.rot_since, SWING_HALFLIFE)
+        k = np.where(k < 1e-9, 0.0, k)  # long let go: nothing left to turn
+        if not k.any():
+            return free_rot
+        return quat.rotvec_matrix(self.rel_vec * k[..., None]) @ free_rot
+
+    def _shown(self, base, height, follows, free_rot, free_wanted, turn) -> tuple[np.ndarray, np.ndarray]:
+        """Where each effector is shown in its current mode, and its foot's wanted orientation."""
+        free_rot = self._released_rot(free_rot)
+        free_wanted = self._tilt(base[..., [0, 2]]) @ free_rot
+        shown = base + self._offset()
+        under = self.floor.height(shown[..., [0, 2]])
+        shown[..., 1] += np.where(follows, 0.0, under - self.floor.height(base[..., [0, 2]]))  # see _ground_shift
+        low = under + height
+        shown[..., 1] = np.where(follows, shown[..., 1], np.maximum(shown[..., 1], low))
+        held_at = self._shown_held()
+        held_tilt = self._tilt(self.target[..., [0, 2]])
+        wanted = np.where(
+            (self.mode == FREE)[..., None, None],
+            free_wanted,
+            held_tilt @ np.where((self.mode == HEEL)[..., None, None], free_rot, _turn(self.held_rot, free_rot, turn)),
+        )
+        rocker = held_at + np.einsum("...ij,...j->...i", wanted, self.chains.tip_offset)
+        shown = np.where((self.mode == BALL)[..., None], held_at, np.where((self.mode == HEEL)[..., None], rocker, shown))
+        return shown, wanted
+
+    def _ground_shift(self, shown: np.ndarray, base: np.ndarray) -> np.ndarray:
+        """How much higher the floor is under ``shown`` than under ``base`` (``(C, L)``; 0 on a flat floor)."""
+        return self.floor.height(shown[..., [0, 2]]) - self.floor.height(base[..., [0, 2]])
+
+    def _offset(self) -> np.ndarray:
+        """The decaying offset of the free rule now, ``(C, L, 3)`` (zero where a landing's is decaying)."""
+        hl = np.where(self.settle[..., None], SETTLE_HALFLIFE, _HALFLIVES)
+        x = _spring(self.offset, self.offset_vel, self.since, hl)
+        return np.where(self.settle[..., None], 0.0, x)
+
+    def _held_offset(self) -> np.ndarray:
+        """The decaying height offset of a landing foot now, ``(C, L, 3)``."""
+        x = _spring(self.offset, self.offset_vel, self.since, SETTLE_HALFLIFE)
+        return np.where(self.settle[..., None], x, 0.0)
+
+    def _shown_held(self) -> np.ndarray:
+        """Where a held foot is shown: its target plus the landing's settling height, and, as it rolls off its
+        ball, raised as the verb raises it (``rising``), so it leaves the ground with the verb's knee."""
+        out = self.target + self._held_offset()
+        out[..., 1] += np.where(self.mode == BALL, self.rising, 0.0)
+        return out
+
+    # ----- one frame, legs solved -------------------------------------------------------------
+    def step(
+        self,
+        rotations: np.ndarray,
+        translations: np.ndarray,
+        generic: np.ndarray | None,
+        dt: float,
+        phases: tuple[np.ndarray, ...] | None = None,
+    ) -> tuple[np.ndarray, np.ndarray, ik.IKResult]:
+        """:meth:`step_reference`, compiled where the floor allows: one call for FK, the state machine and IK."""
+        if self._compiled is None:
+            return self.step_reference(rotations, translations, generic, dt, phases)
+        return self._compiled.step(rotations, translations, generic, dt, phases)
+
+    def step_reference(
+        self,
+        rotations: np.ndarray,
+        translations: np.ndarray,
+        generic: np.ndarray | None,
+        dt: float,
+        phases: tuple[np.ndarray, ...] | None = None,
+    ) -> tuple[np.ndarray, np.ndarray, ik.IKResult]:
+        """Plant the feet of one frame of ``C`` creatures: local ``rotations (C, J, 4)``, ``translations (C, J, 3)``
+        of the verb's motion, their generic times ``(C,)`` (or ``phases``, see :meth:`targets`) and the seconds
+        since the previous frame.
+
+        Returns the planted rotations and translations and the IK result (root drop, misses).
+        """
+        rotations = np.asarray(rotations, dtype=float)
+        translations = np.asarray(translations, dtype=float)
+        gpos, grot = forward_kinematics(self.verb.skeleton.parents, rotations, translations)
+        free_pos, free_rot = gpos[:, self.tips], quat.to_matrix(grot[:, self.chains.end])
+        targets, wanted = self.targets_reference(free_pos, free_rot, generic, dt, phases)
+        rise = _rise(self.verb, self.floor, gpos[:, self.verb.encoding.body_root], targets)
+        drop = self.drop_for_reference(gpos[:, self.chains.upper], rise, targets, wanted, dt)
+        risen = _ride_floor(self.verb, self.chains, translations, grot, rise)
+        result = ik.solve(self.chains, rotations, risen, targets, self._tilts(wanted, free_rot), min_drop=drop)
+        return result.rotations, result.translations, result
+
+    def drop_for(
+        self, hips: np.ndarray, rise: np.ndarray, targets: np.ndarray, wanted: np.ndarray, dt: float | np.ndarray
+    ) -> np.ndarray:
+        """:meth:`drop_for_reference`, compiled where the floor allows."""
+        if self._compiled is None:
+            return self.drop_for_reference(hips, rise, targets, wanted, dt)
+        return self._compiled.drop_for(hips, rise, targets, wanted, dt)
+
+    def drop_for_reference(
+        self, hips: np.ndarray, rise: np.ndarray, targets: np.ndarray, wanted: np.ndarray, dt: float | np.ndarray
+    ) -> np.ndarray:
+        """How far to lower each creature's root this frame, ``(C,)``: what its legs need to reach their targets
+        from the hips ``(C, L, 3)`` (the verb's, before the pelvis rides up by ``rise (C,)``), as
+        :func:`~adverbs.kinematics.ik.solve` reckons it, but let go no faster than a ``DROP_HALFLIFE``
+        decay, so the body does not spring up when a stretched leg lets its foot go."""
+        goals = targets - np.einsum("...ij,...j->...i", wanted, self.chains.tip_offset)
+        d = goals - hips
+        d[..., 1] -= rise[:, None]
+        reach = self.chains.reach
+        across = np.hypot(d[..., 0], d[..., 2])
+        need = np.where(across < reach, -d[..., 1] - np.sqrt(np.maximum(reach**2 - across**2, 0.0)), 0.0)
+        need = np.minimum(np.maximum(need.max(axis=-1), 0.0), ik.MAX_DROP * float(reach.min()))
+        fade = np.exp(-_LN2 * np.broadcast_to(np.asarray(dt, dtype=float), need.shape) / DROP_HALFLIFE)
+        self.drop = np.maximum(need, self.drop * fade)
+        return self.drop
+
+    @staticmethod
+    def _tilts(wanted: np.ndarray, free_rot: np.ndarray) -> np.ndarray:
+        """What the IK premultiplies each foot's orientation by to make it ``wanted``: ``wanted · free⁻¹``."""
+        return wanted @ np.swapaxes(free_rot, -1, -2)
+
+
+class _Compiled:
+    """A :class:`FootPlanter`'s compiled path: its constants laid out once for :mod:`._planting_kernel`, and
+    each frame's inputs checked and passed in with its state arrays (updated in place)."""
+
+    def __init__(self, planter: FootPlanter, floor: tuple):
+        k = _kernel()
+        verb, chains, c, n = planter.verb, planter.chains, planter.creatures, len(planter.tips)
+        self.planter = planter
+        self.kernel = k
+        self.floor = floor  # _compiled_floor(planter.floor)
+        self.constants = k.constants(
+            SWING_HALFLIFE, _LN2, _HALFLIVES, SETTLE_HALFLIFE, SWING_CLEARANCE, STILL_DOWN, LIFTS_OFF, TOE_LANDS,
+            DROP_HALFLIFE, SWING_LIFT, LIFT_BLEND,
+        )  # fmt: skip
+        tip = np.ascontiguousarray(chains.tip_offset, dtype=float)
+        self.legs = (planter.heights, planter.opens, planter.heel_heights, tip)
+        reach = np.ascontiguousarray(chains.reach)
+        self.max_drop = ik.MAX_DROP * float(reach.min())
+        joints = (np.asarray(a, dtype=np.int64) for a in (chains.above, chains.upper, chains.middle, chains.end))
+        axes = (np.ascontiguousarray(a, dtype=float) for a in (chains.hinge, chains.upper_offset, chains.end_offset))
+        self.chain = (*joints, *axes, reach)
+        self.ik_params = (float(chains.min_flex), ik.ITERATIONS, ik.DAMPING**2, ik.MAX_STEP, self.max_drop)
+        self.parents = np.asarray(verb.skeleton.parents, dtype=np.int64)
+        self.tips = planter.tips.astype(np.int64)
+        self.root = int(verb.encoding.body_root)
+        self.dt = np.empty(c)
+        self.no_generic = np.zeros(c)  # stand-ins for the inputs not given
+        self.no_phases = (np.zeros((c, n), dtype=bool), np.zeros((c, n)), np.zeros((c, n)))
+        self.scratch: tuple | None = None  # step's arrays that are not returned
+
+    def _state(self) -> tuple:
+        """The planter's state arrays, in the order ``_planting_kernel`` takes them."""
+        p = self.planter
+        return (
+            p.mode, p.turn, p.target, p.held_rot, p.offset, p.offset_vel, p.since, p.spent, p.rising, p.rel_vec,
+            p.rot_since, p.settle, p.hover, p.ground, p.prev_free, p.drop,
+        )  # fmt: skip
+
+    def _frame(self, generic, dt, phases) -> tuple:
+        """``generic, inside, turn, swing, use_phases`` as the kernel takes them; ``dt`` into ``self.dt``."""
+        self.dt[:] = dt
+        shape = self.planter.mode.shape
+        if phases is None:
+            generic = np.asarray(generic, dtype=float)
+            if generic.shape != shape[:1]:
+                generic = np.ascontiguousarray(np.broadcast_to(generic, shape[:1]))
+            return generic, *self.no_phases, False
+        inside, turn = np.asarray(phases[0], dtype=bool), np.asarray(phases[1], dtype=float)
+        swing = np.asarray(phases[2], dtype=float) if len(phases) > 2 else self.no_phases[2]
+        if inside.shape != shape or turn.shape != shape or swing.shape != shape:
+            inside, turn, swing = (np.ascontiguousarray(np.broadcast_to(x, shape)) for x in (inside, turn, swing))
+        return self.no_generic, inside, turn, swing, True
+
+    def _times(self) -> np.ndarray:
+        """The holds' times ``(C, L, 3)`` (``set_weights`` and ``plant_feet_many`` set them)."""
+        return np.ascontiguousarray(self.planter.times, dtype=float)
+
+    def targets(self, free_pos, free_rot, generic, dt, phases) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`FootPlanter.targets_reference` by ``_planting_kernel.advance``."""
+        p = self.planter
+        free_pos = np.ascontiguousarray(free_pos, dtype=float)
+        free_rot = np.ascontiguousarray(free_rot, dtype=float)
+        shown, wanted = np.empty(free_pos.shape), np.empty(free_rot.shape)
+        self.kernel.advance(
+            free_pos, free_rot, *self._frame(generic, dt, phases), self.dt, not p.started, self._times(),
+            p.verb.cyclic, p.verb.floor, self.legs, self.constants, self.floor, self._state(), shown, wanted,
+        )  # fmt: skip
+        p.started = True
+        return shown, wanted
+
+    def drop_for(self, hips, rise, targets, wanted, dt) -> np.ndarray:
+        """:meth:`FootPlanter.drop_for_reference` by ``_planting_kernel.drop_for``."""
+        self.dt[:] = dt
+        p = self.planter
+        hips, rise, targets, wanted = (np.ascontiguousarray(a, dtype=float) for a in (hips, rise, targets, wanted))
+        self.kernel.drop_for(hips, rise, targets, wanted, self.dt, self.legs[3], self.chain[-1], self.max_drop,
+                             self.constants, p.drop)  # fmt: skip
+        return p.drop.copy()
+
+    def step(self, rotations, translations, generic, dt, phases) -> tuple[np.ndarray, np.ndarray, ik.IKResult]:
+        """:meth:`FootPlanter.step_reference` by ``_planting_kernel.step``: FK, the state machine and IK in one call."""
+        p = self.planter
+        rot = np.array(rotations, dtype=float, order="C")  # planted in place
+        trans = np.array(translations, dtype=float, order="C")
+        c = rot.shape[0]
+        if self.scratch is None or self.scratch[0].shape != trans.shape:  # FK, targets, wanted orientations
+            n = len(self.tips)
+            self.scratch = (np.empty(trans.shape), np.empty(rot.shape), np.empty((c, n, 3)), np.empty((c, n, 3, 3)))
+        drop, residual = np.empty(c), np.empty((c, len(self.tips)))
+        finite = self.kernel.step(
+            self.parents, rot, trans, *self._frame(generic, dt, phases), self.dt, not p.started, self._times(),
+            p.verb.cyclic, p.verb.floor, self.tips, self.root, self.legs, self.constants, self.floor, self._state(),
+            self.chain, self.ik_params, (*self.scratch, drop, residual),
+        )  # fmt: skip
+        p.started = True
+        if not finite:
+            raise AdverbsError("IK targets must be finite (got NaN or infinity)")
+        return rot, trans, ik.IKResult(rot, trans, drop, residual > ik.MISS, residual)
+
+
+def _compiled_floor(floor: Floor) -> tuple | None:
+    """``floor`` as ``_planting_kernel`` takes it (``(kind, params, tilt, gx, gz, grid)``), or ``None`` if it cannot
+    (a :class:`~adverbs.kinematics.floor.FunctionFloor`, or a subclass with heights of its own)."""
+    none, no_grid = np.zeros(0), np.zeros((0, 0))
+    if type(floor) is FlatFloor or type(floor) is SlopeFloor:  # a plane: one tilt everywhere
+        gradient, d = (0.0, (0.0, 0.0)) if floor.is_flat else (floor.gradient, floor.direction)
+        params = np.array([floor.level, gradient, d[0], d[1], floor.step])
+        plane_tilt = np.eye(3) if floor.is_flat else tilt(floor.normal(np.zeros(2)))
+        return 0, params, plane_tilt, none, none, no_grid
+    if type(floor) is HeightMapFloor:
+        params = np.array([0.0, 0.0, 0.0, 0.0, floor.step])
+        return 1, params, np.eye(3), floor.x, floor.z, floor.heights
+    return None
+
+
+_KERNEL = None
+
+
+def _kernel():
+    """Compile the planter's loop on first use (cached on disk by numba), so importing adverbs stays quick."""
+    global _KERNEL
+    if _KERNEL is None:
+        from . import _planting_kernel
+
+        _KERNEL = _planting_kernel
+    return _KERNEL
+
+
+def hold_modes(cyclic: bool, g: np.ndarray, opens: np.ndarray, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Whether each hold is open at generic times ``g (..., 1)``, given its ``opens (L,)`` and ``times (..., L, 3)``
+    (foot flat, heel-off, toe-off): ``(..., L)`` bool, and how far each foot has turned back to the verb's
+    orientation (0 until heel-off, 1 at toe-off; smoothstep)."""
+    heel, close = times[..., 1] - opens, times[..., 2] - opens
+    if cyclic:
+        into = (g - opens) % 1.0
+        inside = into < close
+    else:
+        into = g - opens
+        inside = (into >= 0.0) & ((into < close) | (opens + close >= 1.0 - 1e-9))
+    return inside, _smoothstep((into - heel) / np.maximum(close - heel, 1e-12))
+
+
+def swing_lifts(cyclic: bool, g: np.ndarray, opens: np.ndarray, times: np.ndarray) -> np.ndarray:
+    """How much of ``SWING_LIFT`` a free foot keeps under it at generic times ``g (..., 1)``: ``(..., L)``, 1 from
+    toe-off (and while its hold is open, for a foot let go early), fading to 0 by smoothstep over the last
+    ``SWING_LANDING`` of the swing, so the foot lands where the verb lands it. A one-shot verb's feet get none:
+    their swings have no next landing to come down for."""
+    shape = np.broadcast_shapes(np.shape(g), np.shape(times)[:-1])
+    if not cyclic:
+        return np.zeros(shape)
+    close = times[..., 2] - opens
+    into = (g - opens) % 1.0
+    swung = (into - close) / np.where(close < 1.0, 1.0 - close, 1.0)
+    lift = _smoothstep((1.0 - swung) / SWING_LANDING)
+    return np.broadcast_to(np.where((into < close) | (close >= 1.0), 1.0, lift), shape)
+
+
+def _lowered(lift: np.ndarray, hover: np.ndarray) -> np.ndarray:
+    """A free foot's height above its contact height: the verb's ``lift``, less its ``hover`` (the verb's own
+    contact level at these adverbs) near that level, fading to none ``SWING_CLEARANCE`` above it, so the
+    foot lands on the floor and swings as high as the verb swings it."""
+    return lift - hover * (1.0 - _smoothstep((lift - hover) / SWING_CLEARANCE))
+
+
+def _smooth_max(a: np.ndarray, b: np.ndarray, k: float) -> np.ndarray:
+    """``max(a, b)``, rounded where the two are within ``k`` of each other (``+ k h²/4``, ``h = 1 − |a − b|/k``), so
+    its slope does not jump where one overtakes the other."""
+    h = np.maximum(k - np.abs(a - b), 0.0) / k
+    return np.maximum(a, b) + 0.25 * k * h * h
+
+
+def _smoothstep(x: np.ndarray) -> np.ndarray:
+    """``3x² − 2x³`` of ``x`` clipped to ``[0, 1]``: from 0 to 1 with zero slope at both ends."""
+    x = np.clip(x, 0.0, 1.0)
+    return x * x * (3.0 - 2.0 * x)
+
+
+def _turn(held: np.ndarray, free: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Rotations ``(..., 3, 3)`` turned from ``held`` to ``free`` by weights ``w (...)`` (slerp; only where
+    ``0 < w < 1``, the rest is one or the other)."""
+    w = np.broadcast_to(w, np.broadcast_shapes(held.shape[:-2], free.shape[:-2], np.shape(w)))
+    out = np.where((w >= 1.0)[..., None, None], free, held)
+    part = (w > 0.0) & (w < 1.0)
+    if part.any():
+        a, b = np.broadcast_to(held, out.shape)[part], np.broadcast_to(free, out.shape)[part]
+        out[part] = quat.to_matrix(quat.slerp(quat.from_matrix(a), quat.from_matrix(b), w[part]))
+    return out
+
+
+def _rise(verb: Verb, floor: Floor, root: np.ndarray, feet: np.ndarray) -> np.ndarray:
+    """How far the pelvis rides up: the floor's height under the body root ``root (..., 3)``, or under the lower
+    foot (``feet (..., L, 3)``, the effectors' targets) where that is lower, so up a slope the body stays low
+    enough for the trailing leg to reach its foot; relative to the verb's own floor."""
+    return np.minimum(floor.height(root[..., [0, 2]]), floor.height(feet[..., [0, 2]]).min(axis=-1)) - verb.floor
+
+
+def _ride_floor(verb: Verb, chains: ik.LegChains, translations, grot, rise) -> np.ndarray:
+    """Translations with the pelvis raised along world up by ``rise (...,)``."""
+    t = np.array(translations, dtype=float)
+    lift = chains.above[-1]
+    up = np.broadcast_to([0.0, 1.0, 0.0], rise.shape + (3,))
+    parent = verb.skeleton.parents[lift]
+    if parent >= 0:
+        up = quat.rotate(quat.inv(grot[..., parent, :]), up)
+    t[..., lift, :] += rise[..., None] * up
+    return t
+
+
+def frame_generic(verb: Verb, keytimes: np.ndarray, times: np.ndarray) -> np.ndarray:
+    """Generic time of clock times ``times (...)`` of motions of ``verb`` with ``keytimes (..., N)``: the frames
+    of one motion (``(F,)`` with ``(N,)``), or each creature of a crowd (``(C,)`` with ``(C, N)``)."""
+    k = np.asarray(keytimes, dtype=float)
+    t = np.asarray(times, dtype=float)
+    t = t % k[..., -1] if verb.cyclic else np.clip(t, 0.0, k[..., -1])
+    g = timewarp.generic_time(t, k, verb.generic_keytimes)
+    if not verb.cyclic:
+        g = np.where(np.asarray(times) >= k[..., -1] - 1e-9, 1.0, g)
+    return g
+
+
+def phase_masks(
+    verb: Verb, keytimes: np.ndarray, clip: Clip, weights: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where each effector itself is held (foot flat to toe-off), where its foot is flat (heel and ball
+    held: foot flat to heel-off) and where its heel is held (heel strike to heel-off), as the examples'
+    contact times say: masks ``(F, L)`` over the frames of ``clip``, a motion of ``verb`` with
+    ``keytimes`` at cardinal ``weights (E,)`` (default: the holds' mean times). (The planter lands the
+    ball when it reaches the floor; what it did is in its :class:`PlantingReport`.)"""
+    g = frame_generic(verb, keytimes, np.arange(clip.num_frames) / clip.fps)
+    opens = np.array([h.open for h in verb.holds])
+    times = verb.hold_times(weights) if weights is not None else np.array([h.times for h in verb.holds])
+    inside, turn = hold_modes(verb.cyclic, g[:, None], opens, times)
+    into = (g[:, None] - opens) % 1.0 if verb.cyclic else g[:, None] - opens
+    ball = inside & (into >= times[..., 0] - opens)
+    return ball, ball & (turn == 0.0), inside & (turn == 0.0)
+
+
+def mode_masks(modes: np.ndarray, turns: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Ball held, foot flat and heel held ``(F, L)`` from the planter's modes and turn-back weights."""
+    ball = modes == BALL
+    return ball, ball & (turns == 0.0), (modes != FREE) & (turns == 0.0)
+
+
+def phase_frames(
+    verb: Verb, keytimes: np.ndarray, clip: Clip, weights: np.ndarray | None = None
+) -> list[list[tuple[int, int]]]:
+    """Each effector's held phases in frames ``[start, stop)`` of ``clip`` (a motion of ``verb`` with ``keytimes``)."""
+    held = phase_masks(verb, keytimes, clip, weights)[0]
+    return [runs(held[:, i]) for i in range(held.shape[1])]
+
+
+def plant_feet(
+    verb: Verb, clip: Clip, keytimes: np.ndarray, floor: Floor | None = None, point: np.ndarray | None = None
+) -> tuple[Clip, PlantingReport]:
+    """Enforce ``verb``'s constraints on ``clip`` (synthesized by it at adverb ``point`` with ``keytimes``) on ``floor``.
+
+    The :class:`FootPlanter` run over the frames in order, then every frame's legs in one batched IK
+    solve: the same motion as planting one frame at a time. ``point`` sets when each foot lands and
+    lifts (the examples' own contact times, blended); without it, their mean.
+    """
+    return plant_feet_many(verb, [(clip, keytimes, point)], floor)[0]
+
+
+def _checked_motion(verb: Verb, i: int, motion) -> tuple[Clip, np.ndarray, np.ndarray | None]:
+    """Motion ``i`` as ``(clip, keytimes, point)``, refused unless it can be a motion of ``verb``: its clip on the
+    verb's skeleton, its keytimes as many as the verb's, from 0 and in order, its point one of the verb's."""
+    if not isinstance(motion, tuple | list) or len(motion) not in (2, 3) or not isinstance(motion[0], Clip):
+        raise AdverbsError(f"motion {i}: give (clip, keytimes) or (clip, keytimes, point), got {type(motion).__name__}")
+    clip, keytimes, point = motion[0], motion[1], motion[2] if len(motion) > 2 else None
+    what = f"motion {i} (clip {clip.name!r})"
+    why = verb.skeleton.structure_difference(clip.skeleton)
+    if why is not None:
+        raise AdverbsError(f"{what} is not on the skeleton of verb {verb.name!r}: {why}")
+    k = timewarp.check_keytimes(keytimes, f"{what}: keytimes")
+    if k.shape != verb.generic_keytimes.shape or k[0] < 0:
+        raise AdverbsError(
+            f"{what}: keytimes must be {len(verb.generic_keytimes)} times in seconds from 0 (as synthesize returns "
+            f"them), got shape {k.shape} from {k.flat[0]:g}"
+        )
+    return clip, k, None if point is None else verb.point(point)
+
+
+def plant_feet_many(
+    verb: Verb, motions: Sequence[tuple], floor: Floor | None = None
+) -> list[tuple[Clip, PlantingReport]]:
+    """:func:`plant_feet` for many creatures' motions of one verb, ``(clip, keytimes)`` or ``(clip, keytimes,
+    point)`` each (their own adverbs, keytimes and length): every frame of every creature goes through
+    one batched IK solve.
+    """
+    floor = FlatFloor(verb.floor) if floor is None else floor
+    motions = [_checked_motion(verb, i, m) for i, m in enumerate(motions)]
+    if not verb.constraints:
+        return [(clip, PlantingReport([], np.zeros(clip.num_frames), 0)) for clip, _, _ in motions]
+    # Every creature's planter state advanced together, frame by frame (shorter clips repeat their last
+    # frame; what comes after their end is dropped): the state machine is vectorized over creatures.
+    c, longest = len(motions), max(clip.num_frames for clip, _, _ in motions)
+    weights = np.stack([verb.weights(verb.point(p)) if p is not None else np.full(len(verb.examples), np.nan)
+                        for _, _, p in motions])  # fmt: skip
+    planter = FootPlanter(verb, c, floor)
+    known = ~np.isnan(weights[:, 0])
+    if known.any():
+        planter.times[known] = verb.hold_times(weights[known])
+    fk = [clip.forward_kinematics() for clip, _, _ in motions]
+    tips, ends = planter.tips, planter.chains.end
+    free_pos = np.empty((longest, c, len(tips), 3))
+    free_rot = np.empty((longest, c, len(tips), 3, 3))
+    g = np.empty((longest, c))
+    for i, ((clip, keytimes, _), (gpos, grot)) in enumerate(zip(motions, fk)):
+        n = clip.num_frames
+        free_pos[:n, i], free_rot[:n, i] = gpos[:, tips], quat.to_matrix(grot[:, ends])
+        free_pos[n:, i], free_rot[n:, i] = free_pos[n - 1, i], free_rot[n - 1, i]
+        g[:n, i] = frame_generic(verb, keytimes, np.arange(n) / clip.fps)
+        g[n:, i] = g[n - 1, i]
+    dt = np.array([1.0 / clip.fps for clip, _, _ in motions])
+    tg, wanted = np.empty_like(free_pos), np.empty_like(free_rot)
+    modes, turns = np.empty(free_pos.shape[:3], dtype=int), np.empty(free_pos.shape[:3])
+    roots = np.empty((longest, c, 3))
+    hips = np.empty((longest, c, len(tips), 3))
+    for i, ((clip, _, _), (gpos, _)) in enumerate(zip(motions, fk)):
+        n = clip.num_frames
+        roots[:n, i], hips[:n, i] = gpos[:, verb.encoding.body_root], gpos[:, planter.chains.upper]
+        roots[n:, i], hips[n:, i] = roots[n - 1, i], hips[n - 1, i]
+    rises, drops = np.empty((longest, c)), np.empty((longest, c))
+    for f in range(longest):
+        tg[f], wanted[f] = planter.targets(free_pos[f], free_rot[f], g[f], dt)
+        modes[f], turns[f] = planter.mode, planter.turn
+        rises[f] = _rise(verb, floor, roots[f], tg[f])
+        drops[f] = planter.drop_for(hips[f], rises[f], tg[f], wanted[f], dt)
+    rots, trans, targets, tilts, starts, masks, min_drops = [], [], [], [], [0], [], []
+    for i, ((clip, _, _), (_, grot)) in enumerate(zip(motions, fk)):
+        n = clip.num_frames
+        masks.append(mode_masks(modes[:n, i], turns[:n, i]))
+        rots.append(clip.rotations)
+        trans.append(_ride_floor(verb, planter.chains, clip.translations, grot, rises[:n, i]))
+        targets.append(tg[:n, i])
+        tilts.append(planter._tilts(wanted[:n, i], free_rot[:n, i]))
+        min_drops.append(drops[:n, i])
+        starts.append(starts[-1] + n)
+    result = ik.solve(
+        verb.leg_chains, np.concatenate(rots), np.concatenate(trans), np.concatenate(targets), np.concatenate(tilts),
+        min_drop=np.concatenate(min_drops),
+    )  # fmt: skip
+    out = []
+    for (clip, _, _), (held, flat, heel), a, b in zip(motions, masks, starts[:-1], starts[1:]):
+        unreachable = int(np.count_nonzero(result.unreachable[a:b]))
+        warnings = []
+        if unreachable:
+            warnings.append(
+                f"{unreachable} effector-frames could not reach their targets (largest miss "
+                f"{1000 * result.residual[a:b].max():.0f} mm); the pose was left as close as it gets"
+            )
+        planted = clip.replace(rotations=result.rotations[a:b], translations=result.translations[a:b])
+        report = PlantingReport(
+            [runs(held[:, i]) for i in range(held.shape[1])], result.root_drop[a:b], unreachable,
+            warnings, [runs(flat[:, i]) for i in range(flat.shape[1])], [runs(heel[:, i]) for i in range(heel.shape[1])],
+        )  # fmt: skip
+        out.append((planted, report))
+    return out
+
+
+def planted_drift(positions: np.ndarray, spans: list[tuple[int, int]]) -> np.ndarray:
+    """Per contact phase ``[start, stop)``: the largest horizontal distance from where it began, ``(P,)`` metres."""
+    out = []
+    for a, b in spans:
+        xz = positions[a:b][:, [0, 2]]
+        out.append(float(np.linalg.norm(xz - xz[0], axis=-1).max()) if len(xz) else 0.0)
+    return np.array(out)
+
+
+def foot_drift(verb: Verb, clip: Clip, keytimes: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
+    """:func:`planted_drift` of every constrained effector of ``clip`` over the phases the examples' contact
+    times give (:func:`phase_frames`; a planted clip's own are in its report), all together, metres."""
+    gpos = clip.global_positions()
+    spans = phase_frames(verb, keytimes, clip, weights)
+    return np.concatenate([planted_drift(gpos[:, e], s) for e, s in zip(effector_joints(verb), spans)] or [np.zeros(0)])
+
+
+def effector_joints(verb: Verb) -> list[int]:
+    """Joint index of each constraint's effector."""
+    return [verb.skeleton.index(c.effector) for c in verb.constraints]
+
+
+
+@dataclass
+class FootMetrics:
+    """What planted feet look like, measured on the output's joints (metres, m/s); see :func:`measure_feet`.
+
+    ``toe_drift (P,)``: per held phase of the ball, its largest horizontal distance from where the phase
+    began. ``heel_drift (Q,)``: the same for the ankle over each phase where the foot is flat.
+    ``lowest``: the lowest any constrained effector gets, against the floor plus its contact height
+    (negative: through the floor). ``held_height``: the largest distance of a held ball from the floor
+    plus its contact height while the foot is flat (rolling off, it rises with the verb's). ``slide (R,)``: per release, how far the foot moves horizontally before it
+    rises ``LIFTED`` above its contact height, on its way up (``free_slide``: the same for the verb's own
+    motion, if given). ``release_speed (R,)``: the foot's largest speed over the
+    three frames after each release. ``unreachable``: effector-frames the IK could not reach.
+    """
+
+    toe_drift: np.ndarray
+    heel_drift: np.ndarray
+    lowest: float
+    held_height: float
+    slide: np.ndarray
+    release_speed: np.ndarray
+    unreachable: int
+    free_slide: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    def line(self) -> str:
+        """One line for a terminal."""
+        def mm(x: np.ndarray, f=np.max) -> str:
+            return f"{1000 * f(x):.1f}" if len(x) else "-"
+
+        return (
+            f"toe drift median {mm(self.toe_drift, np.median)} / max {mm(self.toe_drift)} mm, heel drift max "
+            f"{mm(self.heel_drift)} mm, lowest {1000 * self.lowest:+.1f} mm, held height within "
+            f"{1000 * self.held_height:.1f} mm, slide after release max {mm(self.slide)} mm, "
+            f"{self.unreachable} effector-frames out of reach"
+        )
+
+
+def measure_feet(
+    verb: Verb, planted: Clip, report: PlantingReport, floor: Floor | None = None, free: Clip | None = None
+) -> FootMetrics:
+    """:class:`FootMetrics` of ``planted`` (what :func:`plant_feet` returned with ``report``) on ``floor``.
+
+    With ``free``, the verb's own motion that was planted, ``free_slide`` measures its toe the same way
+    against its own contact level (the lowest it was over the hold before): the slide the verb itself
+    has (a foot that sweeps the ground in a pivot turn).
+    """
+    floor = FlatFloor(verb.floor) if floor is None else floor
+    gpos = planted.global_positions()
+    tips = effector_joints(verb)
+    toe, ankle = gpos[:, tips], gpos[:, verb.leg_chains.end]
+    height = np.array([0.0 if h.height is None else h.height for h in verb.holds])
+    follows = np.array([h.height is None for h in verb.holds])
+    above = toe[..., 1] - floor.height(toe[..., [0, 2]]) - height
+    speed = np.zeros(toe.shape[:2])
+    speed[1:] = np.linalg.norm(np.diff(toe, axis=0), axis=-1) * planted.fps
+    releases = [(i, a, b) for i in range(len(tips)) for a, b in report.phases[i] if b < planted.num_frames]
+    held = [np.abs(above[a:b, i]).max() for i in range(len(tips)) if not follows[i] for a, b in report.flat[i]]
+    free_slide = np.zeros(0)
+    if free is not None:
+        ftoe = free.global_positions()[:, tips]
+        lift = ftoe[..., 1] - verb.floor - height
+        # Against the verb's own contact level: the lowest its toe was over the hold before each release.
+        own = np.full(lift.shape, np.inf)
+        for i, a, b in releases:
+            nxt = min([s for s, _ in report.phases[i] if s > a] or [len(ftoe)])
+            own[b:nxt, i] = lift[b:nxt, i] - lift[a:b, i].min()
+        free_slide = _slides(ftoe, own, releases, report.phases)
+    return FootMetrics(
+        np.concatenate([planted_drift(toe[:, i], report.phases[i]) for i in range(len(tips))]),
+        np.concatenate([planted_drift(ankle[:, i], report.flat[i]) for i in range(len(tips))]),
+        float(np.where(follows, np.inf, above).min()) if not follows.all() else 0.0,
+        float(max(held, default=0.0)),
+        _slides(toe, above, releases, report.phases),
+        np.array([speed[b : b + 3, i].max() for i, _, b in releases]),
+        report.unreachable,
+        free_slide,
+    )
+
+
+def _slides(toe: np.ndarray, above: np.ndarray, releases: list, phases: list) -> np.ndarray:
+    """Per release ``(leg, start, stop)``: how far the toe travels horizontally before it has left the ground on its
+    way up: from its last held frame until it is first ``LIFTED`` above its contact height (``above (F, L)``), and
+    no further than the swing's highest point (before the next hold). So a foot that drags before it lifts
+    counts, and neither a landing nor a swing that later passes low again (a cycle's seam) does."""
+    out = []
+    for i, a, b in releases:
+        nxt = min([s for s, _ in phases[i] if s > a] or [len(toe)])
+        swing = above[b : max(nxt, b + 1), i]
+        apex = int(np.argmax(swing))
+        lifted = np.flatnonzero(swing >= LIFTED)
+        stop = b + (min(int(lifted[0]), apex + 1) if len(lifted) else apex + 1)
+        out.append(float(np.linalg.norm(np.diff(toe[b - 1 : stop, i][:, [0, 2]], axis=0), axis=-1).sum()))
+    return np.array(out)

@@ -1,0 +1,406 @@
+"""A verb as immutable tables: example points, keytimes, B-spline coefficients, encoding, constraints (§3, §4).
+
+A built verb is data that any number of creatures read at once. Nothing in it changes after it is
+made (its arrays are read-only); everything that changes while a creature moves — the weights and
+keytimes cached for its adverb point, its cycle, its root — lives in a
+:class:`~adverbs.verb.sampling.SamplingState` the caller owns.
+
+The tables are what the paper interpolates: every control point and every keytime is a function of
+the adverb point ``p`` through the cardinal weights of :class:`~adverbs.interp.rbf.AdverbInterpolator`
+(eqs. 3, 4), ``b(p) = Σ_i w_i(p) b_i``.
+
+Keytime policy: the paper interpolates keytimes directly (eq. 4), which can make them cross when
+extrapolating. Here the *intervals* between keytimes are interpolated as logarithms,
+``K_{m+1}(p) − K_m(p) = exp(Σ_i w_i(p) log(K_{i,m+1} − K_{i,m}))``, so keytimes are strictly increasing at
+every ``p``, examples are still reproduced exactly, and durations extrapolate multiplicatively (a walk
+25% faster than the fastest example gets shorter, never negative, steps).
+
+Building the tables is :func:`adverbs.verb.fit.build_verb`, saving and loading them
+:mod:`adverbs.verb.store`, sampling them :mod:`adverbs.verb.sampling` and whole motions
+:mod:`adverbs.verb.synthesis`; the methods here are thin calls of those.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+import dataclasses
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+
+from ..errors import AdverbsError
+from ..interp import bspline, timewarp
+from ..interp.rbf import AdverbInterpolator
+from ..kinematics.ik import LegChains
+from ..kinematics.skeleton import Skeleton
+from ..motion.clip import Clip
+from ..motion.encoding import DofEncoding
+from . import sampling, synthesis
+from .constraints import Constraint, Hold, check_constraint, default_holds
+from . import goal as goals
+from .goal import Goal
+
+
+@dataclass(frozen=True)
+class Adverb:
+    """One axis of a verb's parameter space; ``measure`` says how it is read off a motion (or ``None``)."""
+
+    name: str
+    unit: str = ""
+    measure: dict | None = None
+
+
+@dataclass(eq=False)
+class Example:
+    """One example motion, cut and annotated: the input of :func:`~adverbs.verb.fit.build_verb`.
+
+    ``keytimes (N,)`` are clock seconds from 0 to the clip's duration; ``point (A,)`` its adverb values.
+    """
+
+    name: str
+    clip: Clip
+    keytimes: np.ndarray
+    point: np.ndarray
+    source: str = ""
+    part: str = ""
+    refine: bool = False  # a local refinement: radial part only, not in the linear fit
+    keytime_names: tuple[str, ...] = ()  # e.g. ("left strike", "right toe-off", ...)
+
+
+@dataclass(frozen=True)
+class ExampleRecord:
+    """What a built verb keeps about each example (its motion lives in the coefficient table)."""
+
+    name: str
+    source: str
+    part: str
+    fit_error: float = field(default=0.0)  # largest joint-position error of the B-spline fit at the frames, metres
+    refine: bool = False
+    fine_error: float = 0.0  # largest pose error of the fit on a grid 4x finer than the frames, metres
+
+
+TIMINGS = ("extrapolate", "clamp")  # Verb.timing: how keytime intervals behave past the examples
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    a = np.array(a, dtype=float)  # a private copy: nobody else holds a reference that could write to it
+    a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class Verb:
+    """A parameterized motion: immutable tables shared by every creature that plays it.
+
+    Make one with :func:`~adverbs.verb.fit.build_verb` (or :func:`~adverbs.verb.fit.build_from_spec`,
+    :func:`~adverbs.verb.store.load_verb`).
+
+    Attributes
+    ----------
+    points : (E, A) adverb points of the examples
+    keytimes_table : (E, N) keytimes of the examples, seconds
+    coefficients : (E, NumCP, D) B-spline control points of every DOF of every example
+    encoding : DofEncoding (the skeleton is ``encoding.skeleton``)
+    constraints : the kinematic constraints (feet held between keytimes)
+    holds : how the planter holds each constraint's effector, in generic time, with the effector's
+        height above the floor while down (measured from the examples' contacts at build; by default
+        read from the constraints' keytimes alone)
+    hold_table : (E, L, 3) each example's foot-flat, heel-off and toe-off of each hold, generic time
+        after its opening (blended like keytimes: :meth:`hold_times`; default: the holds' own)
+    floor : height of the ground the examples stand on, metres
+    generic_keytimes : (N,) where each keytime sits in generic time, from 0 to 1, shared by every
+        example (default: evenly spaced, the paper's; see :mod:`adverbs.interp.timewarp`)
+    smoothing, shrinkage : the interpolation's smoothing λ and slope shrinkage μ (0: exact, the
+        paper's; ``"auto"``: chosen by leave-one-out on the verb's own tables, then kept as numbers;
+        see :class:`~adverbs.interp.rbf.AdverbInterpolator`)
+    goal_chain : joints whose rotations put the joint of the verb's ``joint_position`` adverbs on the
+        asked goal at their keytime (empty: no goal correction; see :mod:`adverbs.verb.goal`)
+    timing : how keytime intervals behave past the examples: ``"extrapolate"`` (default, the paper's:
+        each log interval is interpolated like any value, so a point past the quickest examples is
+        quicker still) or ``"clamp"`` (each interval stays within the examples' shortest and longest for
+        that interval: past the examples the motion goes further, never faster or slower than a take did)
+
+    Derived tables (computed once): ``interpolator`` (cardinal weights), ``log_intervals (E, N-1)``,
+    ``interval_bounds (2, N-1)`` (the smallest and largest log interval ``timing`` allows: ±∞ when it
+    extrapolates), ``segments (NumCP, E, D)`` (the coefficients by control point, with the B-spline
+    basis's 1/6 folded in: what the sampling kernel reads), ``seam_table (E, D)`` (each example's end value
+    minus its start value, ``d(1) − d(0)``: the jump hidden where a cycle follows itself) and ``goal``
+    (the :class:`~adverbs.verb.goal.Goal` of ``goal_chain``, or None).
+    """
+
+    name: str
+    encoding: DofEncoding
+    adverbs: tuple[Adverb, ...]
+    examples: tuple[ExampleRecord, ...]
+    points: np.ndarray
+    keytimes_table: np.ndarray
+    coefficients: np.ndarray
+    cyclic: bool
+    fps: float
+    keytime_names: tuple[str, ...] = ()
+    constraints: tuple[Constraint, ...] = ()
+    floor: float = 0.0
+    generic_keytimes: np.ndarray | None = None
+    smoothing: float | str = 0.0
+    shrinkage: float | str = 0.0
+    holds: tuple[Hold, ...] = ()
+    hold_table: np.ndarray | None = None
+    goal_chain: tuple[str, ...] = ()
+    timing: str = "extrapolate"
+    interpolator: AdverbInterpolator = field(init=False, repr=False)
+    log_intervals: np.ndarray = field(init=False, repr=False)
+    interval_bounds: np.ndarray = field(init=False, repr=False)
+    segments: np.ndarray = field(init=False, repr=False)
+    seam_table: np.ndarray = field(init=False, repr=False)
+    goal: Goal | None = field(init=False, repr=False)
+    goal_misses: np.ndarray | None = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        name, enc = self.name, self.encoding
+        put = object.__setattr__  # the dataclass is frozen: fields are set once, here
+        put(self, "adverbs", tuple(self.adverbs))
+        put(self, "examples", tuple(self.examples))
+        put(self, "constraints", tuple(self.constraints))
+        put(self, "points", _frozen(self.points))
+        put(self, "keytimes_table", _frozen(timewarp.check_keytimes(self.keytimes_table, f"verb {name!r}")))
+        put(self, "coefficients", _frozen(self.coefficients))
+        put(self, "cyclic", bool(self.cyclic))
+        put(self, "fps", float(self.fps))
+        put(self, "floor", float(self.floor))
+        n = self.keytimes_table.shape[1]
+        try:
+            put(self, "generic_keytimes", _frozen(timewarp.check_generic(self.generic_keytimes, n)))
+        except AdverbsError as e:
+            raise AdverbsError(f"verb {name!r}: {e}") from None
+        put(self, "keytime_names", tuple(self.keytime_names) or tuple(f"keytime {i}" for i in range(n)))
+        if len(self.keytime_names) != n:
+            raise AdverbsError(f"verb {name!r}: {len(self.keytime_names)} keytime names for {n} keytimes")
+        for c in self.constraints:
+            check_constraint(c, enc.skeleton, n, self.cyclic)
+        holds = tuple(self.holds) or tuple(default_holds(self.constraints, self.generic_keytimes, self.cyclic))
+        if [h.effector for h in holds] != [c.effector for c in self.constraints]:
+            raise AdverbsError(f"verb {name!r}: {len(holds)} holds for {len(self.constraints)} constraints")
+        put(self, "holds", holds)
+        spans = np.array([[h.toe_down - h.open, h.heel_off - h.open, h.close - h.open] for h in holds]).reshape(-1, 3)
+        table = np.broadcast_to(spans, (len(self.examples),) + spans.shape) if self.hold_table is None else self.hold_table
+        if np.shape(table) != (len(self.examples), len(holds), 3) or not np.all(np.isfinite(table)):
+            raise AdverbsError(f"verb {name!r}: hold table {np.shape(table)} does not fit {len(holds)} holds")
+        put(self, "hold_table", _frozen(table))
+        e = len(self.examples)
+        if self.points.shape != (e, len(self.adverbs)) or self.keytimes_table.shape[0] != e:
+            raise AdverbsError(f"verb {name!r}: tables disagree on the number of examples or adverbs")
+        coef = self.coefficients
+        if coef.ndim != 3 or coef.shape[0] != e or coef.shape[2] != enc.num_dofs:
+            raise AdverbsError(f"verb {name!r}: coefficient table {coef.shape} does not fit")
+        bspline.check_num_cp(coef.shape[1])
+        log_intervals = np.log(np.diff(self.keytimes_table, axis=1))
+        ip = AdverbInterpolator(
+            self.points,
+            [x.name for x in self.examples],
+            linear=[not x.refine for x in self.examples],
+            smoothing=self.smoothing,
+            shrinkage=self.shrinkage,
+            # What "auto" cross-validates on; a fixed λ, μ (every loaded verb) needs no copy of the tables.
+            values=np.concatenate([coef.reshape(e, -1), log_intervals], axis=1)
+            if "auto" in (self.smoothing, self.shrinkage)
+            else None,
+        )
+        put(self, "interpolator", ip)
+        put(self, "smoothing", float(ip.smoothing))  # "auto" resolved: what a saved verb keeps
+        put(self, "shrinkage", float(ip.shrinkage))
+        put(self, "log_intervals", _frozen(log_intervals))
+        if self.timing not in TIMINGS:
+            raise AdverbsError(f"verb {name!r}: timing must be one of {', '.join(map(repr, TIMINGS))}, got {self.timing!r}")
+        if self.timing == "clamp":
+            bounds = np.array([log_intervals.min(axis=0), log_intervals.max(axis=0)])
+        else:
+            bounds = np.repeat([[-np.inf], [np.inf]], n - 1, axis=1)
+        put(self, "interval_bounds", _frozen(bounds))
+        put(self, "segments", _frozen(coef.transpose(1, 0, 2) / 6.0))
+        v0, _, v1, _ = bspline.ends(coef.transpose(1, 0, 2))
+        put(self, "seam_table", _frozen(v1 - v0))
+        put(self, "goal_chain", tuple(self.goal_chain))
+        goal = None
+        if self.goal_chain:
+            try:
+                goal = Goal.build(self.goal_chain, self.adverbs, enc, self.generic_keytimes, self.cyclic)
+            except AdverbsError as e:
+                raise AdverbsError(f"verb {name!r}: {e}") from None
+        put(self, "goal", goal)
+        put(self, "goal_misses", None if goal is None else _frozen(goals.misses(self)))
+
+    def __repr__(self) -> str:
+        kind = "cyclic" if self.cyclic else "one-shot"
+        return (
+            f"Verb({self.name!r}: {kind}, {len(self.examples)} examples, adverbs {', '.join(self.adverb_names)}; "
+            f"{self.num_keytimes} keytimes, {self.num_dofs} DOFs x {self.num_cp} control points)"
+        )
+
+    # ----- shape -------------------------------------------------------------------------------
+    @property
+    def skeleton(self) -> Skeleton:
+        return self.encoding.skeleton
+
+    @property
+    def num_cp(self) -> int:
+        return self.coefficients.shape[1]
+
+    @property
+    def num_keytimes(self) -> int:
+        return self.keytimes_table.shape[1]
+
+    @property
+    def num_dofs(self) -> int:
+        return self.encoding.num_dofs
+
+    @property
+    def adverb_names(self) -> tuple[str, ...]:
+        return tuple(a.name for a in self.adverbs)
+
+    @cached_property
+    def leg_chains(self) -> LegChains:
+        """The two-bone chains of the constrained effectors, knee axes fitted to the examples.
+
+        Derived from the tables alone, computed on first use and kept (it never changes).
+        """
+        if not self.constraints:
+            raise AdverbsError(f"verb {self.name!r} has no constraints")
+        e, n, d = self.coefficients.shape
+        flat = self.coefficients.transpose(1, 0, 2).reshape(n, e * d)
+        samples = bspline.evaluate(flat, np.linspace(0, 1, 24)).reshape(24, e, d)
+        rotations, _ = self.encoding.decode(samples.transpose(1, 0, 2), self.fps)
+        effectors = [c.effector for c in self.constraints]
+        return LegChains.build(self.skeleton, effectors, rotations.reshape(-1, *rotations.shape[-2:]))
+
+    def point(self, values: dict[str, float] | Sequence[float] | np.ndarray) -> np.ndarray:
+        """An adverb point ``(A,)`` from a mapping of adverb names (missing ones: the examples' mean) or a sequence."""
+        if isinstance(values, dict):
+            unknown = set(values) - set(self.adverb_names)
+            if unknown:
+                raise AdverbsError(
+                    f"verb {self.name!r} has no adverb {sorted(unknown)[0]!r}; adverbs are {', '.join(self.adverb_names)}"
+                )
+            p = self.points.mean(axis=0)
+            for k, v in values.items():
+                p[self.adverb_names.index(k)] = v
+        else:
+            try:
+                p = np.array(values, dtype=float)
+            except (TypeError, ValueError):
+                raise AdverbsError(
+                    f"verb {self.name!r}: an adverb point is {len(self.adverbs)} numbers ({', '.join(self.adverb_names)}) "
+                    f"or a mapping of them, got {values!r:.80}"
+                ) from None
+        if p.shape[-1:] != (len(self.adverbs),):
+            raise AdverbsError(f"verb {self.name!r} takes {len(self.adverbs)} adverbs, got {p.shape[-1:]}")
+        if not np.all(np.isfinite(p)):
+            bad = [self.adverb_names[i] for i in np.flatnonzero(~np.isfinite(p.reshape(-1, p.shape[-1])).any(0))]
+            raise AdverbsError(f"adverb {bad[0]!r} must be a finite number")
+        return p
+
+    def outside(self, p: np.ndarray) -> np.ndarray:
+        """How far ``p (..., A)`` lies outside the examples on each adverb, in ranges of the examples ``(..., A)``.
+
+        0 inside the box the examples span; 0.25 a quarter of that adverb's range beyond its lowest
+        or highest example. An adverb every example shares counts its distance in its own units.
+        """
+        p = np.asarray(p, dtype=float)
+        lo, hi = self.points.min(axis=0), self.points.max(axis=0)
+        span = np.where(hi > lo, hi - lo, 1.0)
+        return np.maximum(np.maximum(lo - p, p - hi), 0.0) / span
+
+    def clamp(self, p: np.ndarray, margin: float = 0.0) -> np.ndarray:
+        """``p`` moved into the examples' box, widened by ``margin`` ranges on each side."""
+        if not (np.isfinite(margin) and margin >= 0):
+            raise AdverbsError(f"clamp margin must be a number ≥ 0, got {margin}")
+        lo, hi = self.points.min(axis=0), self.points.max(axis=0)
+        span = hi - lo
+        return np.clip(np.asarray(p, dtype=float), lo - margin * span, hi + margin * span)
+
+    # ----- what depends on p alone ---------------------------------------------------------------
+    def weights(self, p: np.ndarray) -> np.ndarray:
+        """Cardinal weights ``(..., E)`` at adverb points ``(..., A)``."""
+        return self.interpolator.weights(p)
+
+    def keytimes(self, p: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
+        """Keytimes ``(..., N)`` at ``p``: strictly increasing from 0 (see the module's keytime policy)."""
+        w = self.weights(p) if weights is None else weights
+        steps = np.exp(np.clip(w @ self.log_intervals, *self.interval_bounds))
+        return np.concatenate([np.zeros(steps.shape[:-1] + (1,)), np.cumsum(steps, axis=-1)], axis=-1)
+
+    def hold_times(self, weights: np.ndarray) -> np.ndarray:
+        """Generic times ``(..., L, 3)`` of each hold's foot-flat, heel-off and toe-off at cardinal ``weights (..., E)``.
+
+        The examples' own, blended; kept in order (foot-flat ≤ heel-off ≤ toe-off, a cycle at most) where
+        extrapolated weights would cross them.
+        """
+        spans = np.tensordot(np.asarray(weights, dtype=float), self.hold_table, axes=(-1, 0))
+        opens = np.array([h.open for h in self.holds])
+        close = np.clip(spans[..., 2], 1e-6, 1.0 if self.cyclic else None)
+        if not self.cyclic:
+            close = np.minimum(close, 1.0 - opens)
+            close = np.where(self.hold_table[..., 2].min(axis=0) >= 1.0 - opens - 1e-9, 1.0 - opens, close)
+        heel = np.clip(spans[..., 1], 0.0, close)
+        flat = np.clip(spans[..., 0], 0.0, heel)
+        return opens[:, None] + np.stack([flat, heel, close], axis=-1)
+
+    def control_points(self, p: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
+        """All control points ``(..., NumCP, D)`` at ``p`` (eq. 3); ``weights`` if already known."""
+        w = self.weights(p) if weights is None else weights
+        return np.tensordot(w, self.coefficients, axes=(-1, 0))
+
+    def playing(
+        self, control_points: np.ndarray, keytimes: np.ndarray, p: np.ndarray | None = None, name: str = ""
+    ) -> Verb:
+        """A one-example verb that plays curves ``control_points (NumCP, D)`` at ``keytimes (N,)`` whatever its adverbs:
+        another interpolator's prediction at adverb point ``p``, played by everything a verb is played by.
+
+        Its encoding, constraints and holds are this verb's (the holds' times those at ``p``); its one example
+        stands at ``p`` (default: the examples' mean). It has no goal chain: the curves are played as given.
+        """
+        p = self.point(self.points.mean(axis=0) if p is None else p)
+        cp, k = np.asarray(control_points, dtype=float), np.asarray(keytimes, dtype=float)
+        if cp.shape != (self.num_cp, self.num_dofs) or k.shape != (self.num_keytimes,):
+            raise AdverbsError(f"verb {self.name!r}: control points {cp.shape} and keytimes {k.shape} do not fit it")
+        opens = np.array([h.open for h in self.holds]).reshape(-1, 1)
+        spans = self.hold_times(self.weights(p)) - opens
+        name = name or self.name
+        return dataclasses.replace(
+            self, name=name, examples=(ExampleRecord(name, "", ""),), points=p[None], keytimes_table=k[None],
+            coefficients=cp[None], hold_table=spans[None], smoothing=0.0, shrinkage=0.0, goal_chain=(),
+        )  # fmt: skip
+
+    def duration(self, p: np.ndarray) -> float:
+        """Clock duration ``K_N(p)`` of one cycle (or of the whole motion) at one point ``p (A,)``."""
+        return float(self.keytimes(self.point(p))[-1])
+
+    # ----- evaluation: thin calls of the one sampling kernel --------------------------------------
+    def state(self, creatures: int = 1, root: np.ndarray | None = None) -> sampling.SamplingState:
+        """A fresh :class:`~adverbs.verb.sampling.SamplingState` for ``creatures`` creatures of this verb."""
+        return sampling.SamplingState.new(self, creatures, root)
+
+    def sample(
+        self, points: np.ndarray, clocks: np.ndarray, state: sampling.SamplingState | None = None
+    ) -> tuple[np.ndarray, sampling.SamplingState]:
+        """DOFs ``(C, D)`` of C creatures at adverb points ``(C, A)`` and clock times ``(C,)``; see :func:`~adverbs.verb.sampling.sample`."""
+        return sampling.sample(self, points, clocks, state)
+
+    def pose(self, p: np.ndarray, clock: float, state: sampling.SamplingState | None = None) -> np.ndarray:
+        """DOFs ``(D,)`` of one creature at ``p (A,)`` and clock time ``clock`` seconds; see :func:`~adverbs.verb.sampling.pose`."""
+        return sampling.pose(self, p, clock, state)
+
+    def dofs(self, p: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """DOFs ``(Q, D)`` at adverb points ``(Q, A)`` and generic times ``(Q,)``; see :func:`~adverbs.verb.sampling.dofs`."""
+        return sampling.dofs(self, p, t)
+
+    def synthesize(
+        self,
+        p: np.ndarray,
+        duration: float | None = None,
+        cycles: float | None = None,
+        fps: float | None = None,
+        start: Sequence[float] = (0.0, 0.0, 0.0),
+    ) -> tuple[Clip, np.ndarray]:
+        """A clip at ``p`` and its keytimes ``(N,)``; see :func:`~adverbs.verb.synthesis.synthesize`."""
+        return synthesis.synthesize(self, p, duration, cycles, fps, start)
