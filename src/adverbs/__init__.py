@@ -4,6 +4,7 @@ The package is cut in layers, each a subpackage that imports only from the ones 
 
 | layer | holds |
 | --- | --- |
+| :mod:`adverbs.compiled` | numba's cache of the compiled kernels, dropped when any kernel file changes |
 | :mod:`adverbs.interp` | B-splines, keytime warping, linear + radial interpolation (pure numerics) |
 | :mod:`adverbs.kinematics` | quaternions, skeletons, forward kinematics, two-bone IK, floors |
 | :mod:`adverbs.motion` | clips, heading, DOF encodings, foot contacts, cutting examples |
@@ -16,6 +17,7 @@ The package is cut in layers, each a subpackage that imports only from the ones 
 What most users need is re-exported here, so ``import adverbs`` is enough.
 """
 
+from . import compiled  # noqa: F401  (first: it refreshes numba's cache of the kernels before any is imported)
 from .errors import AdverbsError, BVHError
 from .interp import AdverbInterpolator
 from .graph import CommandRefused, Cue, Graph, GraphSpecError, load_graph, perform
