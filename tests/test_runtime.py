@@ -99,8 +99,8 @@ def test_run_events_stops_at_until_and_keeps_the_rest():
 
 def test_real_time_loop_lowers_its_frame_rate_under_load_and_shows_frames_on_time(cmu):
     warm = Simulation(cmu)
-    warm.add_creature()
-    warm.run(0.2)  # compiled kernels ready before the clock matters
+    warm.add_creature().perform("run")
+    warm.run(1.0)  # compiled kernels (a transition's too) ready before the clock matters, even with no numba cache
     sim = Simulation(cmu, fps=30.0, realtime=True)
     sim.add_creature().perform("run")
     sim.run(1.0)
