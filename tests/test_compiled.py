@@ -71,3 +71,15 @@ def test_refresh_deletes_only_numba_s_files_and_only_on_a_change(tmp_path):
     assert compiled.refresh(pkg, stamp) is False and all(p.exists() for p in drop)
     (pkg / "sub" / "_x_kernel.py").write_text("x = 2\n")
     assert compiled.refresh(pkg, stamp) is True and not any(p.exists() for p in drop)
+
+
+def test_batches_run_blas_on_one_thread_and_leave_the_process_setting():
+    import scipy.linalg.cython_blas  # noqa: F401  numba's np.dot calls this BLAS
+    from threadpoolctl import threadpool_info
+
+    before = {i["filepath"]: i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"}
+    assert before  # numpy's BLAS at least
+    with compiled.one_blas_thread():
+        inside = {i["filepath"]: i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"}
+    assert inside.keys() == before.keys() and set(inside.values()) == {1}
+    assert {i["filepath"]: i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"} == before

@@ -1,4 +1,5 @@
-"""numba's on-disk cache of the compiled kernels, kept in step with every kernel source file.
+"""The compiled machinery: numba's on-disk cache of the kernels, kept in step with every kernel source file, and
+BLAS kept to one thread for the kernels' many small matrix products.
 
 numba caches each ``cache=True`` function next to its source (``__pycache__/*.nbi``, ``*.nbc``) and checks only
 that one file's time stamp and size before loading it. Our kernels call one another across files (the planter
@@ -13,12 +14,23 @@ files are named ``_*kernel.py`` or ``_*scalars.py`` (``tests/test_compiled.py`` 
 ``cache=True`` function lives in one). Nothing is done where numba keeps its cache elsewhere
 (``NUMBA_CACHE_DIR``) or the package's folder cannot be written (numba then caches per user, and an install
 writes every file anew).
+
+:func:`one_blas_thread` runs a block with OpenBLAS (numpy's and scipy's, which numba's ``np.dot`` calls) on
+one thread. The sampling kernel groups a crowd's queries by B-spline segment into products of a few hundred rows
+by ``4E`` columns by ``D``: far too small to share. On an idle 2-core machine OpenBLAS's threads neither help
+nor hurt them; with anything else running (a game's other threads, the viewer, another process), its worker
+threads spin waiting for a core and the products take 5 to 50 times longer (10,000 creatures of the Bandai reach
+under load: median 96 ms a frame, up to 144 ms, against 10 ms on one thread; ``dofs`` of 10,000 points up to
+660 ms against 14 ms). It costs about 30 µs, so it wraps batches only. The limit is lifted when the block ends;
+the rest of the process keeps its own setting.
 """
 
 from __future__ import annotations
 
 import hashlib
 import os
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parent
@@ -67,6 +79,22 @@ def refresh(package: Path = PACKAGE, stamp: Path = STAMP) -> bool:
         return True
     except OSError:  # a read-only install: numba caches elsewhere
         return False
+
+
+_BLAS = None  # threadpoolctl's controller, made on first use (after the BLAS libraries it controls are loaded)
+
+
+@contextmanager
+def one_blas_thread() -> Iterator[None]:
+    """Run the block with every loaded BLAS on one thread (see the module docstring)."""
+    global _BLAS
+    if _BLAS is None:
+        import scipy.linalg.cython_blas  # noqa: F401  the BLAS numba's np.dot calls: loaded, so it is controlled
+        from threadpoolctl import ThreadpoolController
+
+        _BLAS = ThreadpoolController()
+    with _BLAS.limit(limits=1, user_api="blas"):
+        yield
 
 
 refresh()

@@ -34,10 +34,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..compiled import one_blas_thread
 from ..errors import AdverbsError
 from ..interp import bspline, timewarp
 from . import goal as goals
-from ._sampling_kernel import CYCLE_EPS, CYCLIC, GENERIC, ONE_SHOT, VELOCITIES, refresh_batch, sample_batch
+from ._sampling_kernel import CYCLE_EPS, CYCLIC, GENERIC, GROUPED, ONE_SHOT, VELOCITIES, refresh_batch, sample_batch
 
 if TYPE_CHECKING:
     from .tables import Verb
@@ -169,10 +170,15 @@ def run_kernel(
     cycles = np.empty(len(rows), dtype=np.int64) if cycles is None else cycles
     g = verb.goal
     columns, window = (_NO_COLUMNS, _NO_WINDOW) if g is None else (g.columns, g.window)
-    sample_batch(
+    args = (
         verb.segments, state.weights, state.keytimes, verb.generic_keytimes, state.seam, state.goal, columns, window,
         rows, np.ascontiguousarray(times, dtype=float), kind, SEAM_BLEND, out, cycles,
     )  # fmt: skip
+    if len(rows) < GROUPED:  # one by one, no BLAS
+        sample_batch(*args)
+    else:
+        with one_blas_thread():
+            sample_batch(*args)
     return out
 
 
@@ -257,17 +263,18 @@ def dofs(verb: Verb, p: np.ndarray, t: np.ndarray) -> np.ndarray:
     out = np.empty((len(t), verb.num_dofs))
     e = len(verb.examples)
     no_keytimes, no_seam = np.zeros((e, 0)), np.zeros((e, 0))  # generic times: no warp, no cycles
-    for a in range(0, len(t), CHUNK):
-        rows = np.arange(min(CHUNK, len(t) - a))
-        w = np.empty((len(rows), e))
-        refresh_batch(
-            p[a : a + CHUNK], rows, *verb.interpolator.kernel_tables, no_keytimes, np.zeros((2, 0)), no_seam,
-            w, np.empty((len(rows), 1)), np.empty((len(rows), 0)),
-        )  # fmt: skip
-        sample_batch(
-            verb.segments, w, no_keytimes, verb.generic_keytimes, no_seam, no_seam, _NO_COLUMNS, _NO_WINDOW, rows,
-            t[a : a + CHUNK], GENERIC, SEAM_BLEND, out[a : a + CHUNK], np.empty(len(rows), dtype=np.int64),
-        )  # fmt: skip
+    with one_blas_thread():
+        for a in range(0, len(t), CHUNK):
+            rows = np.arange(min(CHUNK, len(t) - a))
+            w = np.empty((len(rows), e))
+            refresh_batch(
+                p[a : a + CHUNK], rows, *verb.interpolator.kernel_tables, no_keytimes, np.zeros((2, 0)), no_seam,
+                w, np.empty((len(rows), 1)), np.empty((len(rows), 0)),
+            )  # fmt: skip
+            sample_batch(
+                verb.segments, w, no_keytimes, verb.generic_keytimes, no_seam, no_seam, _NO_COLUMNS, _NO_WINDOW, rows,
+                t[a : a + CHUNK], GENERIC, SEAM_BLEND, out[a : a + CHUNK], np.empty(len(rows), dtype=np.int64),
+            )  # fmt: skip
     return out
 
 
