@@ -1,7 +1,0 @@
-"""``python -m adverbs``: the command line."""
-
-import sys
-
-from .apps.cli import main
-
-sys.exit(main())
