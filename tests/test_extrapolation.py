@@ -94,3 +94,24 @@ def test_cli_warns_clamps_and_refuses(tmp_path):
     assert "turn=-10000 clamped to" in r.stderr and out.exists()
     r = run("synth", verb, "--adverb", "speed=-1", "-o", out)
     assert r.returncode == 0 and "adverbs: warning: speed=-1 is 1.7 ranges outside the examples" in r.stderr
+
+
+def test_synth_gives_one_answer_whatever_the_length(tmp_path):
+    """A point 0.75 ranges outside (past a graph's half range, well short of degenerate) is synthesized with the
+    same warning for one cycle, a bit more than one (the verb's loop into itself), a duration or many cycles; a
+    long duration is held to the frame limit, not to a graph's hour. Feet that cannot reach a 45° slope are
+    warned about for one cycle and for several."""
+    from conftest import SPECS
+
+    verb = tmp_path / "walk.verb"
+    assert run("build", SPECS / "cmu_walk.toml", "-o", verb).returncode == 0
+    out = tmp_path / "x.bvh"
+    for length in ([], ["--cycles", "1.01"], ["--duration", "1.6"], ["--cycles", "3"]):
+        r = run("synth", verb, "--adverb", "speed=0", *length, "-o", out)
+        assert r.returncode == 0, (length, r.stderr)
+        assert "warning: speed=0 is 0.75 ranges outside the examples" in r.stderr and "graph" not in r.stderr
+    r = run("synth", verb, "--duration", "4000", "--fps", "10", "-o", out)
+    assert r.returncode == 0 and "40001 frames" in r.stdout, r.stderr
+    for cycles in ("1", "2"):
+        r = run("synth", verb, "--floor", "slope:45", "--cycles", cycles, "-o", out)
+        assert r.returncode == 0 and "effector-frames could not reach their targets" in r.stderr, (cycles, r.stderr)

@@ -541,6 +541,8 @@ def _graph(args: argparse.Namespace) -> None:
         )  # fmt: skip
         for when, reason in perf.refused:
             print(f"adverbs: warning: command at {when:g} s refused: {reason}", file=sys.stderr)
+        for warning in perf.report.warnings:
+            print(f"adverbs: warning: {warning}", file=sys.stderr)
         write_motion(perf.planted, args.output, portable=args.portable)
         print(_play_line(graph, perf, floor, args.output))
     else:

@@ -65,6 +65,7 @@ def perform(
     adverbs: dict[str, float] | None = None,
     root: Sequence[float] = (0.0, 0.0, 0.0),
     from_start: bool = False,
+    planned: bool = False,
 ) -> Performance:
     """Play ``seconds`` of one creature through ``graph`` at ``fps``, following ``script``; plant its feet on ``floor``
     (default: flat, at the level of the first verb that holds feet).
@@ -73,12 +74,20 @@ def perform(
     start of the first verb, as :func:`~adverbs.graph.player.first_frame` shows it). A cue whose command is
     refused (an unknown or unreachable verb, a bad adverb) is recorded in :attr:`Performance.refused` and the
     creature carries on.
+
+    ``planned``: the caller has checked the start point, the length and the frame rate as a synthesis does
+    (:func:`~adverbs.verb.synthesis.plan`, which :func:`repeat` calls), so ``synth`` gives one answer whatever
+    the number of cycles; otherwise they are held to a graph's range (:meth:`Graph.check_point`), at most
+    ``MAX_SECONDS`` and 1 to ``MAX_FPS`` frames a second.
     """
-    if not (np.isfinite(seconds) and 0 < seconds <= MAX_SECONDS):
-        raise AdverbsError(f"seconds must be a number in (0, {MAX_SECONDS:g}], got {seconds}")
-    if not (np.isfinite(fps) and 1 <= fps <= MAX_FPS):
-        raise AdverbsError(f"fps must be a number from 1 to {MAX_FPS:g}, got {fps}")
-    point = graph.check_point(graph.point(adverbs))  # a point far outside would play degenerate cycles
+    if not planned:
+        if not (np.isfinite(seconds) and 0 < seconds <= MAX_SECONDS):
+            raise AdverbsError(f"seconds must be a number in (0, {MAX_SECONDS:g}], got {seconds}")
+        if not (np.isfinite(fps) and 1 <= fps <= MAX_FPS):
+            raise AdverbsError(f"fps must be a number from 1 to {MAX_FPS:g}, got {fps}")
+    point = graph.point(adverbs)
+    if not planned:
+        point = graph.check_point(point)  # a point far outside would play degenerate cycles
     state = new_state(graph, 1, seed, start, point[None], np.asarray(root, dtype=float)[None])
     feet = planter(graph, 1, floor) if any(v.holds for v in graph.verbs) else None
     cues = sorted(script, key=lambda c: c.time)
@@ -92,7 +101,7 @@ def perform(
     legs = len(feet.tips) if feet is not None else 0
     modes, turns, drops = np.zeros((frames, legs), dtype=np.int64), np.zeros((frames, legs)), np.zeros(frames)
     refused: list[tuple[float, str]] = []
-    unreachable = 0
+    unreachable, miss = 0, 0.0
     k = 0
     for f in range(frames):
         now = (f - int(from_start)) * dt
@@ -115,13 +124,19 @@ def perform(
             modes[f], turns[f] = feet.mode[0], feet.turn[0]
             drops[f] = result.root_drop[0]
             unreachable += int(np.count_nonzero(result.unreachable))
+            if result.unreachable.any():
+                miss = max(miss, float(result.residual[result.unreachable].max()))
         else:
             rot[f], trans[f] = free_rot[f], free_trans[f]
         playing.append(state.playing(0))
         active[f], verb[f] = state.active[0], state.verb[0]
     held, flat, heel = mode_masks(modes, turns)
+    warnings = [
+        f"{unreachable} effector-frames could not reach their targets (largest miss {1000 * miss:.0f} mm); "
+        "the pose was left as close as it gets"
+    ] if unreachable else []  # fmt: skip
     report = PlantingReport(
-        [runs(held[:, i]) for i in range(legs)], drops, unreachable, [],
+        [runs(held[:, i]) for i in range(legs)], drops, unreachable, warnings,
         [runs(flat[:, i]) for i in range(legs)], [runs(heel[:, i]) for i in range(legs)],
     )  # fmt: skip
     name = graph.name
@@ -151,5 +166,6 @@ def repeat(
     graph = Graph.of_verb(verb)
     performance = perform(
         graph, seconds=float(clocks[-1]), fps=fps, floor=floor, adverbs=dict(zip(verb.adverb_names, p)), from_start=True,
+        planned=True,
     )  # fmt: skip
     return performance, state.keytimes[0].copy()
