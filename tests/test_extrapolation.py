@@ -115,3 +115,49 @@ def test_synth_gives_one_answer_whatever_the_length(tmp_path):
     for cycles in ("1", "2"):
         r = run("synth", verb, "--floor", "slope:45", "--cycles", cycles, "-o", out)
         assert r.returncode == 0 and "effector-frames could not reach their targets" in r.stderr, (cycles, r.stderr)
+
+
+@pytest.mark.parametrize("name", VERB_SPECS)
+def test_a_degenerate_point_is_refused_frame_by_frame_and_the_state_kept(verbs, name):
+    """pose, sample and keytimes refuse what synthesize refuses (they raised ZeroDivisionError, or gave keytimes
+    [0, 0, 0]); a creature whose new point is refused keeps its cached point and plays on as before."""
+    verb, _ = verbs[name]
+    centre = verb.points.mean(axis=0)
+    state = verb.state()
+    before = verb.pose(centre, 0.3, state)
+    refused = 0
+    for i in range(len(verb.adverbs)):
+        for value in (1e4, -1e4, 1e300, -1e300):
+            p = centre.copy()
+            p[i] = value
+            try:
+                verb.keytimes(p)
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore", AdverbsWarning)
+                    verb.synthesize(p)
+            except AdverbsError as e:
+                assert "degenerates" in str(e)
+                with pytest.raises(AdverbsError, match="degenerates"):
+                    verb.pose(p, 0.3, state)
+                with pytest.raises(AdverbsError, match="degenerates"):
+                    verb.sample(p[None], np.array([0.3]), state)
+                refused += 1
+                np.testing.assert_array_equal(state.points[0], centre)
+                np.testing.assert_array_equal(verb.pose(centre, 0.3, state), before)
+    assert refused >= 2
+    with pytest.raises(AdverbsError, match="must be a number"):
+        verb.point({verb.adverbs[0].name: "fast"})
+
+
+def test_other_methods_are_warned_and_refused_as_ours_is(tmp_path):
+    from conftest import SPECS
+
+    verb = tmp_path / "walk.verb"
+    assert run("build", SPECS / "cmu_walk.toml", "-o", verb).returncode == 0
+    out = tmp_path / "x.bvh"
+    r = run("synth", verb, "--adverb", "speed=-2", "--method", "idw", "-o", out)
+    assert r.returncode == 0 and "speed=-2 is 2.7 ranges outside the examples (0.772465 .. 1.80385)" in r.stderr
+    for method in ("nearest", "linear"):
+        r = run("synth", verb, "--adverb", "turn=-1e4", "--method", method, "-o", tmp_path / f"{method}.bvh")
+        assert r.returncode == 1 and "degenerates" in r.stderr and "turn -118.336 .. 94.3199" in r.stderr, r.stderr
+        assert not (tmp_path / f"{method}.bvh").exists()

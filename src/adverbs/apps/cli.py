@@ -43,6 +43,7 @@ from ..motion.contacts import find_contacts
 from ..verb.fit import verb_from
 from ..verb.planting import foot_drift, measure_feet, plant_feet
 from ..verb.store import load_verb, save_verb
+from ..verb.synthesis import plan
 from ..verb.tables import Verb
 from . import scene
 from .evaluate import DATA, METHODS, SPLITS, evaluate, held_out, predict
@@ -613,6 +614,7 @@ def _run(args: argparse.Namespace) -> None:
         if args.method == "ours":
             source = verb
         else:
+            plan(verb, p, args.duration, args.cycles, args.fps)  # warned and refused as ours would be, by the examples
             predicted = predict(args.method, verb, p)
             if predicted is None:
                 raise AdverbsError(f"--method {args.method} cannot predict from the {len(verb.examples)} examples of {verb.name!r}")

@@ -45,6 +45,20 @@ if TYPE_CHECKING:
 
 SEAM_BLEND = 0.25  # fraction of a cycle over which the seam between cycles is faded out
 CHUNK = 2048  # queries per block when many adverb points are new at once (weights stay in cache)
+SHORTEST_CYCLE = 0.05  # seconds: a cycle (or one-shot motion) shorter than this has degenerated
+LONGEST_CYCLE = 60.0  # seconds: a cycle (or one-shot motion) longer than this has degenerated
+MAX_GAIN = 1e6  # sum of the blend weights' magnitudes (1 within the examples): past this a motion has degenerated
+
+
+def degenerate(verb: Verb, point: np.ndarray | None, why: str) -> AdverbsError:
+    """The error for an adverb ``point`` so far outside the examples that the motion degenerates, ``why`` in brackets."""
+    at = "" if point is None else " at " + ", ".join(f"{n}={v:g}" for n, v in zip(verb.adverb_names, point))
+    lo, hi = verb.points.min(axis=0), verb.points.max(axis=0)
+    ranges = ", ".join(f"{n} {a:g} .. {b:g}" for n, a, b in zip(verb.adverb_names, lo, hi))
+    return AdverbsError(
+        f"verb {verb.name!r}{at}: the motion degenerates there ({why}). The examples span {ranges}: "
+        "ask for adverbs nearer them (adverbs synth --clamp keeps them inside)"
+    )
 
 
 @dataclass(eq=False)
@@ -135,16 +149,39 @@ class SamplingState:
         if not np.all(np.isfinite(p)):
             bad = verb.adverb_names[int(np.flatnonzero(~np.isfinite(p).all(axis=0))[0])]
             raise AdverbsError(f"adverb {bad!r} must be a finite number (got NaN or infinity)")
+        d = verb.num_dofs if verb.cyclic else 0  # a one-shot verb has no seam to hide
+        n = len(changed)
+        weights, keytimes, seam = np.empty((n, self.weights.shape[1])), np.empty((n, self.keytimes.shape[1])), np.empty((n, d))
+        refresh_batch(
+            p, np.arange(n), *verb.interpolator.kernel_tables, verb.log_intervals, verb.interval_bounds,
+            verb.seam_table[:, :d], weights, keytimes, seam,
+        )  # fmt: skip
+        _check_degenerate(verb, p, weights, keytimes)  # before anything is kept: a refused point changes nothing
         self.points[changed] = p
         self.cached[changed] = True
-        d = verb.num_dofs if verb.cyclic else 0  # a one-shot verb has no seam to hide
-        refresh_batch(
-            self.points, changed, *verb.interpolator.kernel_tables, verb.log_intervals, verb.interval_bounds,
-            verb.seam_table[:, :d], self.weights, self.keytimes, self.seam[:, :d],
-        )  # fmt: skip
+        self.weights[changed], self.keytimes[changed], self.seam[changed, :d] = weights, keytimes, seam
         if verb.goal is not None:
             self.goal[changed] = goals.solve(verb, verb.goal, self.weights[changed], self.keytimes[changed], p)
         return True
+
+
+def _check_degenerate(verb: Verb, points: np.ndarray, weights: np.ndarray, keytimes: np.ndarray) -> None:
+    """Refuse adverb ``points (n, A)`` so far outside the examples that their blend ``weights (n, E)`` amplify the
+    examples' differences past ``MAX_GAIN`` times, or their motion (``keytimes (n, N)``) lasts outside
+    ``SHORTEST_CYCLE`` .. ``LONGEST_CYCLE``: frame after frame such a motion is no motion (a cycle of 0 s
+    divides by zero), and synthesis refuses it before any work."""
+    gain = np.abs(weights).sum(axis=1)  # how many times over the examples' differences are blended
+    length = keytimes[:, -1]
+    bad = ~(gain <= MAX_GAIN) | ~((length >= SHORTEST_CYCLE) & (length <= LONGEST_CYCLE))
+    if not bad.any():
+        return
+    i = int(np.argmax(bad))
+    if not gain[i] <= MAX_GAIN:  # keytimes clamped to the examples' (Verb.timing) cannot show a runaway point
+        raise degenerate(verb, points[i], f"its blend weights the examples {gain[i]:.3g} times over; at most {MAX_GAIN:g}")
+    what = "cycle" if verb.cyclic else "motion"
+    raise degenerate(
+        verb, points[i], f"one {what} would last {length[i]:.3g} s; it must last from {SHORTEST_CYCLE:g} s to {LONGEST_CYCLE:g} s"
+    )
 
 
 def mode(verb: Verb) -> int:

@@ -18,14 +18,12 @@ from ..errors import AdverbsError, AdverbsWarning
 from ..limits import check_frames
 from ..motion.clip import Clip
 from . import sampling
+from .sampling import LONGEST_CYCLE, SHORTEST_CYCLE, degenerate
 
 if TYPE_CHECKING:
     from .tables import Verb
 
-SHORTEST_CYCLE = 0.05  # seconds: a cycle (or one-shot motion) shorter than this has degenerated
-LONGEST_CYCLE = 60.0  # seconds: a cycle (or one-shot motion) longer than this has degenerated
 MAX_FPS = 1e4  # frames per second: far past any capture; a BVH frame time down to 1e-4 s
-MAX_GAIN = 1e6  # sum of the blend weights' magnitudes (1 within the examples): past this a motion has degenerated
 WARN_BEYOND = 0.25  # ranges of the examples: farther out than this, synthesize warns
 
 
@@ -67,17 +65,6 @@ def frame_clocks(
     return np.arange(frames) / fps, fps
 
 
-def degenerate(verb: Verb, point: np.ndarray | None, why: str) -> AdverbsError:
-    """The error for an adverb ``point`` so far outside the examples that the motion degenerates, ``why`` in brackets."""
-    at = "" if point is None else " at " + ", ".join(f"{n}={v:g}" for n, v in zip(verb.adverb_names, point))
-    lo, hi = verb.points.min(axis=0), verb.points.max(axis=0)
-    ranges = ", ".join(f"{n} {a:g} .. {b:g}" for n, a, b in zip(verb.adverb_names, lo, hi))
-    return AdverbsError(
-        f"verb {verb.name!r}{at}: the motion degenerates there ({why}). The examples span {ranges}: "
-        "ask for adverbs nearer them (adverbs synth --clamp keeps them inside)"
-    )
-
-
 def plan(
     verb: Verb,
     p: np.ndarray,
@@ -101,10 +88,7 @@ def plan(
             stacklevel=4,
         )
     state = sampling.SamplingState.new(verb, 1)
-    state.update(verb, p[None])
-    gain = float(np.abs(state.weights).sum())  # how many times over the examples' differences are blended
-    if not gain <= MAX_GAIN:  # keytimes clamped to the examples' (Verb.timing) cannot show a runaway point
-        raise degenerate(verb, p, f"its blend weights the examples {gain:.3g} times over; at most {MAX_GAIN:g}")
+    state.update(verb, p[None])  # refuses a point whose blend or keytimes degenerate
     clocks, fps = frame_clocks(verb, state.keytimes[0, -1], duration, cycles, fps, p)
     return p, state, clocks, fps
 

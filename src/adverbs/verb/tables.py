@@ -283,7 +283,10 @@ class Verb:
                 )
             p = self.points.mean(axis=0)
             for k, v in values.items():
-                p[self.adverb_names.index(k)] = v
+                try:
+                    p[self.adverb_names.index(k)] = v
+                except (TypeError, ValueError):
+                    raise AdverbsError(f"verb {self.name!r}: adverb {k!r} must be a number, got {v!r:.80}") from None
         else:
             try:
                 p = np.array(values, dtype=float)
@@ -327,6 +330,10 @@ class Verb:
         """Keytimes ``(..., N)`` at ``p``: strictly increasing from 0 (see the module's keytime policy)."""
         w = self.weights(p) if weights is None else weights
         steps = np.exp(np.clip(w @ self.log_intervals, *self.interval_bounds))
+        bad = ~((steps > 0) & np.isfinite(steps)).all(axis=-1)
+        if bad.any():  # so far out that an interval underflows to 0 s or overflows
+            point = None if p is None else np.asarray(p, dtype=float).reshape(-1, len(self.adverbs))[int(np.argmax(bad.reshape(-1)))]
+            raise sampling.degenerate(self, point, "a keytime interval would last 0 s or forever")
         return np.concatenate([np.zeros(steps.shape[:-1] + (1,)), np.cumsum(steps, axis=-1)], axis=-1)
 
     def hold_times(self, weights: np.ndarray) -> np.ndarray:
