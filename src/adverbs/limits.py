@@ -55,7 +55,22 @@ class Limits:
         return out
 
 
-LIMITS = Limits.from_environment()
+def _from_environment() -> tuple[Limits, AdverbsError | None]:
+    """The limits the environment asks for; a bad variable leaves the defaults and is reported when work is checked
+    (:func:`check_environment`), so ``import adverbs`` never fails on it."""
+    try:
+        return Limits.from_environment(), None
+    except AdverbsError as e:
+        return Limits(), e
+
+
+LIMITS, _ENVIRONMENT_ERROR = _from_environment()
+
+
+def check_environment() -> None:
+    """Raise the error of a malformed ``ADVERBS_MAX_*`` variable, if one was set."""
+    if _ENVIRONMENT_ERROR is not None:
+        raise AdverbsError(str(_ENVIRONMENT_ERROR))
 
 
 def _gib(n: float) -> str:
@@ -65,6 +80,7 @@ def _gib(n: float) -> str:
 def check_frames(frames: float, joints: int, what: str) -> int:
     """Refuse ``frames`` frames of a ``joints``-joint skeleton for ``what`` (e.g. "10 s at 1e9 fps") when they pass
     the frame or memory limit; return the number of frames as an int."""
+    check_environment()
     if not frames >= 0:  # NaN as well
         raise LimitError(f"{what}: {frames} frames is not a number of frames")
     if frames > LIMITS.frames:
@@ -83,6 +99,7 @@ def check_frames(frames: float, joints: int, what: str) -> int:
 
 def check_joints(joints: int, what: str) -> None:
     """Refuse a skeleton of more than the joint limit."""
+    check_environment()
     if joints > LIMITS.joints:
         raise LimitError(
             f"{what} has {joints:,} joints; the limit is {LIMITS.joints:,} (ADVERBS_MAX_JOINTS raises it: see adverbs.limits)"

@@ -38,6 +38,7 @@ from ..errors import AdverbsError, AdverbsWarning
 from ..graph.performance import repeat
 from ..io import motion_format, read_motion, write_motion
 from ..kinematics.floor import parse_floor
+from ..limits import check_environment
 from ..motion.clip import Clip
 from ..motion.contacts import find_contacts
 from ..verb.fit import verb_from
@@ -700,6 +701,7 @@ def main(argv: list[str] | None = None) -> int:
             # and ends in one line naming the file or argument
             warnings.simplefilter("ignore", RuntimeWarning)
             warnings.showwarning = _show_warning
+            check_environment()  # a malformed ADVERBS_MAX_* variable: one line, before any work
             _run(args)
     except AdverbsError as e:
         print(f"adverbs: error: {e}", file=sys.stderr)
