@@ -145,7 +145,7 @@ class SamplingState:
             changed = np.flatnonzero(~self.cached | np.any(points != self.points, axis=1))
             if len(changed) == 0:
                 return False
-        p = points[changed]
+        p = np.ascontiguousarray(points[changed], dtype=float).reshape(len(changed), self.points.shape[1])
         if not np.all(np.isfinite(p)):
             bad = verb.adverb_names[int(np.flatnonzero(~np.isfinite(p).all(axis=0))[0])]
             raise AdverbsError(f"adverb {bad!r} must be a finite number (got NaN or infinity)")
