@@ -208,3 +208,27 @@ def test_render_draws_the_ground_the_feet_were_planted_on(verbs, tmp_path):
         # the grid runs by the lowest foot: within 8 % of the panel's height of it (a metre up the slope is 40 %)
         h, c = int(0.08 * panel.shape[0]), int(cols[rows == foot_row].mean())
         assert grid[foot_row - h : foot_row + h, c - h : c + h].any(), f"panel {i}: no floor grid by the feet"
+
+
+def test_run_interrupted_keeps_what_it_recorded_and_refuses_options_it_would_ignore(tmp_path, capsys):
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    script = tmp_path / "long.toml"
+    script.write_text("seconds = 600\n[[cues]]\nat = 1.0\nperform = 'run'\n")
+    out = tmp_path / "o"
+    cmd = [sys.executable, "-m", "adverbs", "run", str(ROOT / "graphs" / "cmu.toml"), "--script", str(script), "--out", str(out), "--realtime"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(12)  # the graph built (a few seconds) and some seconds of motion played
+    assert proc.poll() is None
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err and "interrupted at" in err and "wrote what was recorded" in err
+    clip = read_bvh(out / "creature1.bvh")
+    assert clip.num_frames > 10 and (out / "events.json").exists()
+    for extra, said in ((["--no-ik", "--floor", "slope:20"], "--no-ik"), (["--format", "glb", "--portable"], "--portable")):
+        assert main(["run", str(ROOT / "graphs" / "cmu.toml"), "--script", str(script), "--out", str(tmp_path / "p"), *extra]) == 1
+        assert said in capsys.readouterr().err and not (tmp_path / "p").exists()

@@ -716,6 +716,9 @@ def main(argv: list[str] | None = None) -> int:
         print("adverbs: error: out of memory: ask for less (fewer frames or creatures), or lower the limits in "
               "ADVERBS_MAX_MEMORY so such work is refused before it starts (see adverbs.limits)", file=sys.stderr)  # fmt: skip
         return 1
+    except KeyboardInterrupt:  # Ctrl-C: what could be kept was written and said (adverbs run); no traceback
+        print("adverbs: interrupted", file=sys.stderr)
+        return 130
     return 0
 
 

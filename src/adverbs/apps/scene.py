@@ -139,7 +139,13 @@ def run_script(
     seed: int | None = None, seconds: float | None = None, plant: bool = True, floor=None, quiet: bool = False,
     formats: Sequence[str] = ("bvh",), portable: bool = False,
 ) -> tuple[Simulation, dict]:  # fmt: skip
-    """Run a script; write the recordings and the log to ``out``. Returns the simulation and the paths written."""
+    """Run a script; write the recordings and the log to ``out``. Returns the simulation and the paths written.
+
+    Interrupted (Ctrl-C), it writes what was recorded up to then, says so, and raises the interrupt again."""
+    if floor is not None and not plant:
+        raise AdverbsError("--floor places the feet on the ground, but --no-ik leaves the feet where the verbs put them")
+    if portable and "bvh" not in formats:
+        raise AdverbsError(f"--portable is a kind of BVH, but --format writes only {', '.join(formats)}")
     script = load_script(script_path)  # a malformed script stops here, before anything is built
     loaded = _graphs([*graphs, *script.graphs], progress=not quiet)
     sim = Simulation(
@@ -151,6 +157,12 @@ def run_script(
     update, close = progress_bar("running") if not (quiet or realtime) else (None, lambda: None)
     try:
         sim.run(length, progress=update)
+    except KeyboardInterrupt:
+        close()
+        if sim.frames:
+            paths = sim.write(out, formats, portable)
+            print(f"\ninterrupted at {sim.time:.1f} s of {length:g}: wrote what was recorded, {', '.join(map(str, paths.values()))}", file=sys.stderr)
+        raise
     finally:
         close()
     return sim, sim.write(out, formats, portable)
