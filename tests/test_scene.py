@@ -232,3 +232,18 @@ def test_run_interrupted_keeps_what_it_recorded_and_refuses_options_it_would_ign
     for extra, said in ((["--no-ik", "--floor", "slope:20"], "--no-ik"), (["--format", "glb", "--portable"], "--portable")):
         assert main(["run", str(ROOT / "graphs" / "cmu.toml"), "--script", str(script), "--out", str(tmp_path / "p"), *extra]) == 1
         assert said in capsys.readouterr().err and not (tmp_path / "p").exists()
+
+
+def test_the_planter_s_holds_are_recorded_and_measure_the_feet(scene):
+    """Creature.holds: the phases the planter held each foot, frame for frame with the clip; over them the held toes
+    stay put and never go below the floor (what the demo's report prints)."""
+    from adverbs.verb.planting import measure_feet
+
+    sim, _ = scene
+    for c in sim.creatures:
+        clip, report = c.clip(), c.holds()
+        assert len(report.root_drop) == clip.num_frames
+        assert all(report.phases) and all(report.flat)  # each foot held, and flat, at some time
+        verb = next(v for v in c.graph.verbs if v.holds)
+        m = measure_feet(verb, clip, report, sim.floor)
+        assert m.toe_drift.max() <= 0.001 and m.lowest > -0.001, m.line()

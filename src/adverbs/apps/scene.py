@@ -279,21 +279,17 @@ def demo(out: Path, script: Path = DEMO_SCRIPT) -> dict[str, Path]:
 
 
 def _feet(sim: Simulation, clips: list) -> dict[str, str]:
-    """For each creature: how low its toes went and how far held toes slid, measured on its recording."""
-    import numpy as np
-
-    from ..motion.contacts import find_contacts
+    """For each creature, what its feet did, measured on its recording over the phases the planter held them
+    (:func:`~adverbs.verb.planting.measure_feet`: held toes' drift, the lowest toe against the floor, ...)."""
+    from ..verb.planting import measure_feet
 
     out = {}
     for c, clip in zip(sim.creatures, clips):
-        pos = clip.global_positions()
-        contacts = find_contacts(clip)
-        toes = [f.toe if f.toe is not None else f.ankle for f in contacts.feet]
-        low = float(pos[:, toes, 1].min())
-        slide = []
-        for i, j in enumerate(toes):
-            held = contacts.planted[1:, i] & contacts.planted[:-1, i]
-            step = np.linalg.norm(np.diff(pos[:, j][:, [0, 2]], axis=0), axis=-1)
-            slide.append(float(np.percentile(step[held], 95)) * clip.fps if held.any() else 0.0)
-        out[c.name] = f"lowest toe joint {100 * low:.1f} cm above the floor; feet on the ground move at most {100 * max(slide):.1f} cm/s (95th percentile)"
+        holding = next((v for v in c.graph.verbs if v.holds), None)
+        report = c.holds()
+        if holding is None or report is None:
+            out[c.name] = "feet not planted"
+            continue
+        metrics = measure_feet(holding, clip, report, sim.floor)
+        out[c.name] = metrics.line() if len(metrics.toe_drift) else "no foot was held"
     return out

@@ -42,6 +42,8 @@ from ..graph.structure import REACH, CommandRefused, Graph
 from ..kinematics.fk import forward_kinematics
 from ..kinematics.floor import FlatFloor, Floor
 from ..motion.clip import Clip
+from ..motion.contacts import runs
+from ..verb.planting import PlantingReport, mode_masks
 from .events import NORMAL, SYNC, EventQueue, Processed, VirtualClock, WallClock, run_events
 
 EASE = 0.5  # seconds: how long an adverb change takes by default
@@ -75,6 +77,7 @@ class _Group:
     rotations: np.ndarray | None = None
     translations: np.ndarray | None = None
     recorded: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list)
+    held: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list)  # the planter's (mode, turn) per frame
     shown_active: np.ndarray | None = None  # the transition each creature was in at the last frame
 
     @property
@@ -160,6 +163,11 @@ class Creature:
     def clip(self) -> Clip:
         """Every frame shown so far, as a clip at the simulation's frame rate (resampled if frames came unevenly)."""
         return self._sim._clip(self)
+
+    def holds(self) -> PlantingReport | None:
+        """What the planter held at every frame of :meth:`clip` (its phases, as :func:`~adverbs.verb.planting.plant_feet`
+        reports them), for :func:`~adverbs.verb.planting.measure_feet`; None if no foot is planted on this graph."""
+        return self._sim._holds(self)
 
     def __repr__(self) -> str:
         return f"Creature({self.name!r}, {self.playing})"
@@ -458,6 +466,9 @@ class Simulation:
         if self.record:
             for g in self._groups.values():
                 g.recorded.append((g.rotations.copy(), g.translations.copy()))
+                if g.feet is not None:  # FREE (0) while planting is off
+                    on = self._plant
+                    g.held.append((g.feet.mode.copy() * on, g.feet.turn.copy()))
         if self._on_frame is not None:
             self._on_frame(self)
         if self._progress is not None:
@@ -488,6 +499,16 @@ class Simulation:
             })  # fmt: skip
 
     # ----- recording ---------------------------------------------------------------------------------
+    def _frames(self, g: _Group, n: int) -> np.ndarray | None:
+        """Where the clip's frames fall among the ``n`` recorded ones (fractional), if they came unevenly (the wall
+        clock) and are resampled; else None."""
+        times = np.asarray(self.frame_times[-n:])
+        steps = np.diff(times)
+        if len(steps) and np.ptp(steps) > 1e-6 / self.fps:
+            grid = np.arange(times[0], times[-1] + 1e-9, 1.0 / self.fps)
+            return np.interp(grid, times, np.arange(len(times)))
+        return None
+
     def _clip(self, creature: Creature) -> Clip:
         g = creature._group
         if not g.recorded:
@@ -497,12 +518,25 @@ class Simulation:
         rot = np.stack([r[creature.index] for r, _ in g.recorded])
         trans = np.stack([tr[creature.index] for _, tr in g.recorded])
         clip = Clip(g.graph.skeleton, rot, trans, self.fps, name=creature.name)
-        times = np.asarray(self.frame_times[-len(g.recorded) :])
-        steps = np.diff(times)
-        if len(steps) and np.ptp(steps) > 1e-6 / self.fps:  # frames came unevenly (the wall clock): resample
-            grid = np.arange(times[0], times[-1] + 1e-9, 1.0 / self.fps)
-            clip = clip.at(np.interp(grid, times, np.arange(len(times))))
-        return clip
+        at = self._frames(g, len(g.recorded))
+        return clip if at is None else clip.at(at)
+
+    def _holds(self, creature: Creature) -> PlantingReport | None:
+        g = creature._group
+        if not g.held:
+            return None
+        modes = np.stack([m[creature.index] for m, _ in g.held])
+        turns = np.stack([t[creature.index] for _, t in g.held])
+        at = self._frames(g, len(g.held))
+        if at is not None:  # the nearest recorded frame's
+            rows = np.rint(at).astype(int)
+            modes, turns = modes[rows], turns[rows]
+        held, flat, heel = mode_masks(modes, turns)
+        legs = range(modes.shape[1])
+        return PlantingReport(
+            [runs(held[:, i]) for i in legs], np.zeros(len(modes)), 0, [], [runs(flat[:, i]) for i in legs],
+            [runs(heel[:, i]) for i in legs],
+        )  # fmt: skip
 
     def write(self, out: str | Path, formats: Sequence[str] = ("bvh",), portable: bool = False) -> dict[str, Path]:
         """Write every creature's recording in each of ``formats`` (``"bvh"``: ``out/NAME.bvh``, portable if asked —
