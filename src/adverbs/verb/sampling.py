@@ -149,29 +149,43 @@ class SamplingState:
         if not np.all(np.isfinite(p)):
             bad = verb.adverb_names[int(np.flatnonzero(~np.isfinite(p).all(axis=0))[0])]
             raise AdverbsError(f"adverb {bad!r} must be a finite number (got NaN or infinity)")
-        d = verb.num_dofs if verb.cyclic else 0  # a one-shot verb has no seam to hide
-        n = len(changed)
-        weights, keytimes, seam = np.empty((n, self.weights.shape[1])), np.empty((n, self.keytimes.shape[1])), np.empty((n, d))
-        refresh_batch(
-            p, np.arange(n), *verb.interpolator.kernel_tables, verb.log_intervals, verb.interval_bounds,
-            verb.seam_table[:, :d], weights, keytimes, seam,
-        )  # fmt: skip
-        _check_degenerate(verb, p, weights, keytimes)  # before anything is kept: a refused point changes nothing
+        old, was = self.points[changed], self.cached[changed]
         self.points[changed] = p
+        self._refresh(verb, changed)
+        try:
+            _check_degenerate(verb, p, self.weights, self.keytimes, changed)
+        except AdverbsError:  # a refused point changes nothing: the rows go back to what they were
+            self.points[changed], self.cached[changed] = old, was
+            self._refresh(verb, changed[was])
+            raise
         self.cached[changed] = True
-        self.weights[changed], self.keytimes[changed], self.seam[changed, :d] = weights, keytimes, seam
         if verb.goal is not None:
             self.goal[changed] = goals.solve(verb, verb.goal, self.weights[changed], self.keytimes[changed], p)
         return True
 
+    def _refresh(self, verb: Verb, rows: np.ndarray) -> None:
+        """Weights, keytimes and seam of the creatures ``rows`` at their ``points``."""
+        d = verb.num_dofs if verb.cyclic else 0  # a one-shot verb has no seam to hide
+        refresh_batch(
+            self.points, rows, *verb.interpolator.kernel_tables, verb.log_intervals, verb.interval_bounds,
+            verb.seam_table[:, :d], self.weights, self.keytimes, self.seam[:, :d],
+        )  # fmt: skip
 
-def _check_degenerate(verb: Verb, points: np.ndarray, weights: np.ndarray, keytimes: np.ndarray) -> None:
-    """Refuse adverb ``points (n, A)`` so far outside the examples that their blend ``weights (n, E)`` amplify the
-    examples' differences past ``MAX_GAIN`` times, or their motion (``keytimes (n, N)``) lasts outside
-    ``SHORTEST_CYCLE`` .. ``LONGEST_CYCLE``: frame after frame such a motion is no motion (a cycle of 0 s
-    divides by zero), and synthesis refuses it before any work."""
-    gain = np.abs(weights).sum(axis=1)  # how many times over the examples' differences are blended
-    length = keytimes[:, -1]
+
+def _check_degenerate(verb: Verb, points: np.ndarray, weights: np.ndarray, keytimes: np.ndarray, rows: np.ndarray) -> None:
+    """Refuse adverb ``points (n, A)`` of the creatures ``rows (n,)`` so far outside the examples that their blend
+    ``weights (C, E)`` amplify the examples' differences past ``MAX_GAIN`` times, or their motion (``keytimes
+    (C, N)``) lasts outside ``SHORTEST_CYCLE`` .. ``LONGEST_CYCLE``: frame after frame such a motion is no motion
+    (a cycle of 0 s divides by zero), and synthesis refuses it before any work."""
+    if len(rows) == 1:  # one creature (a pose): plain numbers
+        r = int(rows[0])
+        g, n = float(np.abs(weights[r]).sum()), float(keytimes[r, -1])
+        if g <= MAX_GAIN and SHORTEST_CYCLE <= n <= LONGEST_CYCLE:
+            return
+        gain, length = np.array([g]), np.array([n])
+    else:
+        gain = np.abs(weights[rows]).sum(axis=1)  # how many times over the examples' differences are blended
+        length = keytimes[rows, -1]
     bad = ~(gain <= MAX_GAIN) | ~((length >= SHORTEST_CYCLE) & (length <= LONGEST_CYCLE))
     if not bad.any():
         return
