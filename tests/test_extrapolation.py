@@ -12,7 +12,8 @@ from test_cli import run
 from adverbs import AdverbsError
 from adverbs.errors import AdverbsWarning
 from adverbs.verb.planting import plant_feet
-from adverbs.verb.synthesis import LONGEST_CYCLE, WARN_BEYOND
+from adverbs.verb.sampling import LONGEST_CYCLE
+from adverbs.verb.synthesis import WARN_BEYOND
 
 
 def test_outside_and_clamp_measure_in_ranges_of_the_examples(verbs):

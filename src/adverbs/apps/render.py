@@ -33,7 +33,6 @@ MAX_FRAMES = 20_000
 GRID_SAMPLES = 48  # points along each grid line on a floor that is not level
 
 
-
 def camera(name: str) -> tuple[float, float]:
     """Azimuth and elevation (degrees) of a named camera (``three-quarter``, ``side``, ``front``, ``back``, ``top``) or of
     ``"AZ,EL"``; the camera looks from there at the figures (azimuth 0: from +z, 90: from +x)."""

@@ -17,8 +17,7 @@ from ..errors import AdverbsError
 from ..limits import check_frames
 from ..kinematics.floor import Floor
 from ..motion.clip import Clip
-from ..motion.contacts import runs
-from ..verb.planting import PlantingReport, mode_masks
+from ..verb.planting import PlantingReport, report_of_modes
 from ..verb.synthesis import MAX_FPS, plan
 from .player import GraphState, command, first_frame, new_state, plant, planter, step
 from .structure import CommandRefused, Graph
@@ -80,14 +79,14 @@ def perform(
     the number of cycles; otherwise they are held to a graph's range (:meth:`Graph.check_point`), at most
     ``MAX_SECONDS`` and 1 to ``MAX_FPS`` frames a second.
     """
-    if not planned:
+    if planned:
+        point = graph.point(adverbs)
+    else:
         if not (np.isfinite(seconds) and 0 < seconds <= MAX_SECONDS):
             raise AdverbsError(f"seconds must be a number in (0, {MAX_SECONDS:g}], got {seconds}")
         if not (np.isfinite(fps) and 1 <= fps <= MAX_FPS):
             raise AdverbsError(f"fps must be a number from 1 to {MAX_FPS:g}, got {fps}")
-    point = graph.point(adverbs)
-    if not planned:
-        point = graph.check_point(point)  # a point far outside would play degenerate cycles
+        point = graph.check_point(graph.point(adverbs))  # a point far outside would play degenerate cycles
     state = new_state(graph, 1, seed, start, point[None], np.asarray(root, dtype=float)[None])
     feet = planter(graph, 1, floor) if any(v.holds for v in graph.verbs) else None
     cues = sorted(script, key=lambda c: c.time)
@@ -130,15 +129,7 @@ def perform(
             rot[f], trans[f] = free_rot[f], free_trans[f]
         playing.append(state.playing(0))
         active[f], verb[f] = state.active[0], state.verb[0]
-    held, flat, heel = mode_masks(modes, turns)
-    warnings = [
-        f"{unreachable} effector-frames could not reach their targets (largest miss {1000 * miss:.0f} mm); "
-        "the pose was left as close as it gets"
-    ] if unreachable else []  # fmt: skip
-    report = PlantingReport(
-        [runs(held[:, i]) for i in range(legs)], drops, unreachable, warnings,
-        [runs(flat[:, i]) for i in range(legs)], [runs(heel[:, i]) for i in range(legs)],
-    )  # fmt: skip
+    report = report_of_modes(modes, turns, drops, unreachable, miss)
     name = graph.name
     planted = Clip(graph.skeleton, rot, trans, fps, name=name)
     free = Clip(graph.skeleton, free_rot, free_trans, fps, name=name)

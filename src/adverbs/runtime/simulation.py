@@ -42,8 +42,7 @@ from ..graph.structure import REACH, CommandRefused, Graph
 from ..kinematics.fk import forward_kinematics
 from ..kinematics.floor import FlatFloor, Floor
 from ..motion.clip import Clip
-from ..motion.contacts import runs
-from ..verb.planting import PlantingReport, mode_masks
+from ..verb.planting import PlantingReport, report_of_modes
 from .events import NORMAL, SYNC, EventQueue, Processed, VirtualClock, WallClock, run_events
 
 EASE = 0.5  # seconds: how long an adverb change takes by default
@@ -499,7 +498,7 @@ class Simulation:
             })  # fmt: skip
 
     # ----- recording ---------------------------------------------------------------------------------
-    def _frames(self, g: _Group, n: int) -> np.ndarray | None:
+    def _frames(self, n: int) -> np.ndarray | None:
         """Where the clip's frames fall among the ``n`` recorded ones (fractional), if they came unevenly (the wall
         clock) and are resampled; else None."""
         times = np.asarray(self.frame_times[-n:])
@@ -518,7 +517,7 @@ class Simulation:
         rot = np.stack([r[creature.index] for r, _ in g.recorded])
         trans = np.stack([tr[creature.index] for _, tr in g.recorded])
         clip = Clip(g.graph.skeleton, rot, trans, self.fps, name=creature.name)
-        at = self._frames(g, len(g.recorded))
+        at = self._frames(len(g.recorded))
         return clip if at is None else clip.at(at)
 
     def _holds(self, creature: Creature) -> PlantingReport | None:
@@ -527,16 +526,11 @@ class Simulation:
             return None
         modes = np.stack([m[creature.index] for m, _ in g.held])
         turns = np.stack([t[creature.index] for _, t in g.held])
-        at = self._frames(g, len(g.held))
+        at = self._frames(len(g.held))
         if at is not None:  # the nearest recorded frame's
             rows = np.rint(at).astype(int)
             modes, turns = modes[rows], turns[rows]
-        held, flat, heel = mode_masks(modes, turns)
-        legs = range(modes.shape[1])
-        return PlantingReport(
-            [runs(held[:, i]) for i in legs], np.zeros(len(modes)), 0, [], [runs(flat[:, i]) for i in legs],
-            [runs(heel[:, i]) for i in legs],
-        )  # fmt: skip
+        return report_of_modes(modes, turns, np.zeros(len(modes)))
 
     def write(self, out: str | Path, formats: Sequence[str] = ("bvh",), portable: bool = False) -> dict[str, Path]:
         """Write every creature's recording in each of ``formats`` (``"bvh"``: ``out/NAME.bvh``, portable if asked —

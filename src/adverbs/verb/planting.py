@@ -661,6 +661,24 @@ def mode_masks(modes: np.ndarray, turns: np.ndarray) -> tuple[np.ndarray, np.nda
     return ball, ball & (turns == 0.0), (modes != FREE) & (turns == 0.0)
 
 
+def report_of_modes(
+    modes: np.ndarray, turns: np.ndarray, root_drop: np.ndarray, unreachable: int = 0, miss: float = 0.0
+) -> PlantingReport:
+    """The :class:`PlantingReport` of the planter's modes and turn-back weights ``(F, L)`` frame by frame: its
+    phases, the ``root_drop (F,)`` and, with ``unreachable`` effector-frames, the warning naming the largest
+    ``miss`` (metres)."""
+    held, flat, heel = mode_masks(modes, turns)
+    legs = range(modes.shape[1])
+    warnings = [
+        f"{unreachable} effector-frames could not reach their targets (largest miss {1000 * miss:.0f} mm); "
+        "the pose was left as close as it gets"
+    ] if unreachable else []  # fmt: skip
+    return PlantingReport(
+        [runs(held[:, i]) for i in legs], root_drop, unreachable, warnings, [runs(flat[:, i]) for i in legs],
+        [runs(heel[:, i]) for i in legs],
+    )  # fmt: skip
+
+
 def phase_frames(
     verb: Verb, keytimes: np.ndarray, clip: Clip, weights: np.ndarray | None = None
 ) -> list[list[tuple[int, int]]]:
@@ -746,10 +764,9 @@ def plant_feet_many(
         modes[f], turns[f] = planter.mode, planter.turn
         rises[f] = _rise(verb, floor, roots[f], tg[f])
         drops[f] = planter.drop_for(hips[f], rises[f], tg[f], wanted[f], dt)
-    rots, trans, targets, tilts, starts, masks, min_drops = [], [], [], [], [0], [], []
+    rots, trans, targets, tilts, starts, min_drops = [], [], [], [], [0], []
     for i, ((clip, _, _), (_, grot)) in enumerate(zip(motions, fk)):
         n = clip.num_frames
-        masks.append(mode_masks(modes[:n, i], turns[:n, i]))
         rots.append(clip.rotations)
         trans.append(_ride_floor(verb, planter.chains, clip.translations, grot, rises[:n, i]))
         targets.append(tg[:n, i])
@@ -761,19 +778,13 @@ def plant_feet_many(
         min_drop=np.concatenate(min_drops),
     )  # fmt: skip
     out = []
-    for (clip, _, _), (held, flat, heel), a, b in zip(motions, masks, starts[:-1], starts[1:]):
+    for i, ((clip, _, _), a, b) in enumerate(zip(motions, starts[:-1], starts[1:])):
+        n = clip.num_frames
         unreachable = int(np.count_nonzero(result.unreachable[a:b]))
-        warnings = []
-        if unreachable:
-            warnings.append(
-                f"{unreachable} effector-frames could not reach their targets (largest miss "
-                f"{1000 * result.residual[a:b].max():.0f} mm); the pose was left as close as it gets"
-            )
         planted = clip.replace(rotations=result.rotations[a:b], translations=result.translations[a:b])
-        report = PlantingReport(
-            [runs(held[:, i]) for i in range(held.shape[1])], result.root_drop[a:b], unreachable,
-            warnings, [runs(flat[:, i]) for i in range(flat.shape[1])], [runs(heel[:, i]) for i in range(heel.shape[1])],
-        )  # fmt: skip
+        report = report_of_modes(
+            modes[:n, i], turns[:n, i], result.root_drop[a:b], unreachable, float(result.residual[a:b].max(initial=0.0))
+        )
         out.append((planted, report))
     return out
 

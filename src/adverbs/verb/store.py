@@ -38,7 +38,8 @@ from ..limits import LIMITS, LimitError, check_joints
 from ..motion.encoding import KINDS, ROOT_COLUMNS, DofEncoding, _axes
 from .constraints import Constraint, Hold, check_constraint
 from .measures import check_measure
-from .synthesis import LONGEST_CYCLE, MAX_FPS
+from .sampling import LONGEST_CYCLE
+from .synthesis import MAX_FPS
 from .tables import TIMINGS, Adverb, ExampleRecord, Verb
 
 FORMAT = "adverbs-verb"  # 2 added keytime names, constraints, floor; 3 generic keytimes, smoothing; 4 holds; 5 goal; 6 timing

@@ -18,7 +18,6 @@ from ..errors import AdverbsError, AdverbsWarning
 from ..limits import check_frames
 from ..motion.clip import Clip
 from . import sampling
-from .sampling import LONGEST_CYCLE, SHORTEST_CYCLE, degenerate
 
 if TYPE_CHECKING:
     from .tables import Verb
@@ -33,23 +32,16 @@ def frame_clocks(
     duration: float | None = None,
     cycles: float | None = None,
     fps: float | None = None,
-    point: np.ndarray | None = None,
 ) -> tuple[np.ndarray, float]:
     """Clock times ``(F,)`` of the frames of a motion whose cycle (or whole motion) lasts ``length`` seconds, and the fps.
 
-    ``cycles`` (default 1) repeats a cyclic verb; ``duration`` in seconds overrides it. Refused
-    before any heavy work: a degenerate ``length`` — far enough outside the examples the
-    interpolated keytimes run away, to a cycle shorter than two frames or longer than
-    :data:`LONGEST_CYCLE` — named with the adverb ``point`` it came from.
+    ``cycles`` (default 1) repeats a cyclic verb; ``duration`` in seconds overrides it. Refused before any heavy
+    work: a frame rate too low to show the cycle in two frames, a duration past the frame limit. (A degenerate
+    ``length`` has been refused already, with its adverb point, by the sampling state :func:`plan` made.)
     """
     fps = verb.fps if fps is None else float(fps)
     if not (np.isfinite(fps) and 0 < fps <= MAX_FPS):
         raise AdverbsError(f"fps must be a positive number up to {MAX_FPS:g}, got {fps}")
-    if not (np.isfinite(length) and SHORTEST_CYCLE <= length <= LONGEST_CYCLE):
-        what = "cycle" if verb.cyclic else "motion"
-        raise degenerate(
-            verb, point, f"one {what} would last {length:.3g} s; it must last from {SHORTEST_CYCLE:g} s to {LONGEST_CYCLE:g} s"
-        )
     if length * fps < 2.0:
         what = "cycle" if verb.cyclic else "motion"
         raise AdverbsError(f"fps {fps:g} is too low: one {what} ({length:.3g} s) would be less than two frames")
@@ -75,7 +67,8 @@ def plan(
     """What a synthesis at ``p`` will sample, checked before any heavy work: the point ``(A,)``, its sampling state
     (one creature), the clock times ``(F,)`` of the frames and the frame rate. Warns when ``p`` lies more than
     :data:`WARN_BEYOND` of the examples' ranges outside them; refuses a point whose blend weights' magnitudes sum past
-    :data:`MAX_GAIN`, or whose motion would last too long or too short (:func:`frame_clocks`)."""
+    :data:`~adverbs.verb.sampling.MAX_GAIN`, or whose motion would last too long or too short
+    (:meth:`~adverbs.verb.sampling.SamplingState.update`), and frames it cannot show (:func:`frame_clocks`)."""
     p = verb.point(p)
     beyond = verb.outside(p)
     if beyond.size and beyond.max() > WARN_BEYOND:
@@ -89,7 +82,7 @@ def plan(
         )
     state = sampling.SamplingState.new(verb, 1)
     state.update(verb, p[None])  # refuses a point whose blend or keytimes degenerate
-    clocks, fps = frame_clocks(verb, state.keytimes[0, -1], duration, cycles, fps, p)
+    clocks, fps = frame_clocks(verb, state.keytimes[0, -1], duration, cycles, fps)
     return p, state, clocks, fps
 
 
