@@ -9,8 +9,8 @@ caller's cached machine code would still run the old callee, silently.
 
 :func:`refresh` (run when this module is imported, which ``adverbs`` does first, before any kernel module) hashes the kernel files together
 and, when the hash differs from the one stamped beside the cache, deletes the cached kernels of every one of
-them, so numba compiles them afresh once. It costs a fraction of a millisecond when nothing changed. Kernel
-files are named ``_*kernel.py`` or ``_*scalars.py`` (``tests/test_compiled.py`` checks that every
+them, so numba compiles them afresh once. It costs about a millisecond when nothing changed. Kernel
+files are named ``_*kernel.py`` or ``_*scalars.py``, in a layer's folder (``tests/test_compiled.py`` checks that every
 ``cache=True`` function lives in one). Nothing is done where numba keeps its cache elsewhere
 (``NUMBA_CACHE_DIR``) or the package's folder cannot be written (numba then caches per user, and an install
 writes every file anew).
@@ -39,8 +39,10 @@ STAMP = PACKAGE / "__pycache__" / "numba-kernels.sha256"
 
 
 def kernel_files(package: Path = PACKAGE) -> list[Path]:
-    """The kernel source files under ``package``, in a fixed order."""
-    return sorted({p for pattern in PATTERNS for p in package.rglob(pattern) if "__pycache__" not in p.parts})
+    """The kernel source files in ``package`` and its subpackages (one level down, where the layers are), in a
+    fixed order. Not a recursive walk: numba's cache folders hold hundreds of files."""
+    found = (p for pattern in PATTERNS for where in ("", "*/") for p in package.glob(where + pattern))
+    return sorted({p for p in found if "__pycache__" not in p.parts})
 
 
 def sources_hash(files: list[Path]) -> str:
