@@ -30,48 +30,64 @@ def keep_feet(parents, tips, rows, weights, rot, trans, shown_rot, shown_trans, 
     was_pos, was_rot = np.empty((1, n_j, 3)), np.empty((1, n_j, 4))
     for i in range(rows.shape[0]):
         c = rows[i]
-        total = 0.0
-        for k in range(tips.shape[0]):
-            total += weights[i, k]
-        if not total > 0.0:  # no foot held in both frames: nothing to keep
-            continue
-        forward(parents, rot[c : c + 1], trans[c : c + 1], now_pos, now_rot)
-        forward(parents, shown_rot[c : c + 1], shown_trans[c : c + 1], was_pos, was_rot)
-        sx = 0.0
-        sz = 0.0
-        for k in range(tips.shape[0]):
-            w = weights[i, k]
-            sx += w * (was_pos[0, tips[k], 0] - now_pos[0, tips[k], 0])
-            sz += w * (was_pos[0, tips[k], 2] - now_pos[0, tips[k], 2])
-        sx /= total
-        sz /= total
-        root[c, 0] += sx
-        root[c, 1] += sz
-        x, y, z, w = above_inv[0], above_inv[1], above_inv[2], above_inv[3]
-        tx = 2.0 * (y * sz - z * 0.0)
-        ty = 2.0 * (z * sx - x * sz)
-        tz = 2.0 * (x * 0.0 - y * sx)
-        trans[c, body, 0] += sx + w * tx + y * tz - z * ty
-        trans[c, body, 1] += 0.0 + w * ty + z * tx - x * tz
-        trans[c, body, 2] += sz + w * tz + x * ty - y * tx
+        keep_feet_row(
+            parents, tips, weights[i], rot[c : c + 1], trans[c : c + 1], shown_rot[c : c + 1], shown_trans[c : c + 1],
+            body, above_inv, root[c], now_pos, now_rot, was_pos, was_rot,
+        )  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def keep_feet_row(parents, tips, weights, rot, trans, shown_rot, shown_trans, body, above_inv, root, now_pos, now_rot,
+                  was_pos, was_rot):  # pragma: no cover  # fmt: skip
+    """One creature of :func:`keep_feet`: its pose ``rot (1, J, 4)``, ``trans (1, J, 3)``, the one shown before, its
+    ``root (3,)``; ``now_*``, ``was_*``: forward kinematics' scratch ``(1, J, 3)``, ``(1, J, 4)``."""
+    total = 0.0
+    for k in range(tips.shape[0]):
+        total += weights[k]
+    if not total > 0.0:  # no foot held in both frames: nothing to keep
+        return
+    forward(parents, rot, trans, now_pos, now_rot)
+    forward(parents, shown_rot, shown_trans, was_pos, was_rot)
+    sx = 0.0
+    sz = 0.0
+    for k in range(tips.shape[0]):
+        w = weights[k]
+        sx += w * (was_pos[0, tips[k], 0] - now_pos[0, tips[k], 0])
+        sz += w * (was_pos[0, tips[k], 2] - now_pos[0, tips[k], 2])
+    sx /= total
+    sz /= total
+    root[0] += sx
+    root[1] += sz
+    x, y, z, w = above_inv[0], above_inv[1], above_inv[2], above_inv[3]
+    tx = 2.0 * (y * sz - z * 0.0)
+    ty = 2.0 * (z * sx - x * sz)
+    tz = 2.0 * (x * 0.0 - y * sx)
+    trans[0, body, 0] += sx + w * tx + y * tz - z * ty
+    trans[0, body, 1] += 0.0 + w * ty + z * tx - x * tz
+    trans[0, body, 2] += sz + w * tz + x * ty - y * tx
 
 
 @njit(cache=True)
 def decay_offsets(rows, since, halflife, offset_rot, offset_rot_vel, offset_trans, offset_trans_vel, rot, trans):  # pragma: no cover
     """For each creature ``rows[i]``: its offset ``since[i]`` seconds on (half-life ``halflife[i]``), each joint's
     rotation offset (a rotation vector) applied before its rotation and its translation offset added."""
-    n_j = rot.shape[1]
     ln2 = math.log(2.0)
     for i in range(rows.shape[0]):
         c = rows[i]
-        t, h = since[i], halflife[i]
-        for j in range(n_j):
-            rx = spring(offset_rot[c, j, 0], offset_rot_vel[c, j, 0], t, h, ln2)
-            ry = spring(offset_rot[c, j, 1], offset_rot_vel[c, j, 1], t, h, ln2)
-            rz = spring(offset_rot[c, j, 2], offset_rot_vel[c, j, 2], t, h, ln2)
-            ex, ey, ez, ew = _exp(rx, ry, rz)
-            q = _mul(ex, ey, ez, ew, rot[c, j, 0], rot[c, j, 1], rot[c, j, 2], rot[c, j, 3])
-            for a in range(4):
-                rot[c, j, a] = q[a]
-            for a in range(3):
-                trans[c, j, a] += spring(offset_trans[c, j, a], offset_trans_vel[c, j, a], t, h, ln2)
+        decay_row(since[i], halflife[i], offset_rot[c], offset_rot_vel[c], offset_trans[c], offset_trans_vel[c], rot[c],
+                  trans[c], ln2)  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def decay_row(t, h, offset_rot, offset_rot_vel, offset_trans, offset_trans_vel, rot, trans, ln2):  # pragma: no cover
+    """One creature of :func:`decay_offsets`: its offsets ``(J, 3)`` ``t`` seconds on, onto ``rot (J, 4)``, ``trans (J, 3)``."""
+    for j in range(rot.shape[0]):
+        rx = spring(offset_rot[j, 0], offset_rot_vel[j, 0], t, h, ln2)
+        ry = spring(offset_rot[j, 1], offset_rot_vel[j, 1], t, h, ln2)
+        rz = spring(offset_rot[j, 2], offset_rot_vel[j, 2], t, h, ln2)
+        ex, ey, ez, ew = _exp(rx, ry, rz)
+        q = _mul(ex, ey, ez, ew, rot[j, 0], rot[j, 1], rot[j, 2], rot[j, 3])
+        for a in range(4):
+            rot[j, a] = q[a]
+        for a in range(3):
+            trans[j, a] += spring(offset_trans[j, a], offset_trans_vel[j, a], t, h, ln2)

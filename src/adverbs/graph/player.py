@@ -151,6 +151,7 @@ class GraphState:
     regions_seen: dict | None = None
     latencies: list[tuple[int, str, float]] = field(default_factory=list)
     caches: dict = field(default_factory=dict)
+    head: np.ndarray | None = None  # (C,) each queue's first transition (−1: empty), kept for the compiled frame
 
     @property
     def creatures(self) -> int:
@@ -196,6 +197,7 @@ def new_state(
     )  # fmt: skip
     state.inertial = np.zeros(c, dtype=bool)
     state.stay = np.array(np.broadcast_to(np.asarray(stay, dtype=bool), (c,)))
+    state.head = np.full(c, -1, dtype=np.int64)
     for k in range(c):
         _settle_queue(state, k)
     return state
@@ -204,9 +206,9 @@ def new_state(
 # ----- the queue ----------------------------------------------------------------------------------
 
 
-def _settle_queue(state: GraphState, c: int) -> None:
-    """Make creature ``c``'s queue playable from where it is: never empty, and a cyclic verb whose next
-    region has gone by in this cycle loops into itself first."""
+def _settle_queue(state: GraphState, c: int, g: float | None = None) -> None:
+    """Make creature ``c``'s queue playable from where it is (its generic time ``g``, default now): never empty, and
+    a cyclic verb whose next region has gone by in this cycle loops into itself first."""
     graph = state.graph
     q = state.queue[c]
     v = int(state.verb[c])
@@ -214,8 +216,16 @@ def _settle_queue(state: GraphState, c: int) -> None:
     if not q:
         q.append(loop if state.stay[c] and loop is not None else graph.draw(v, state.rngs[c]))
     first = graph.transitions[q[0]]
-    if graph.verbs[v].cyclic and first.source_region[0] < state.g[c] - _LATE and loop is not None and q[0] != loop:
+    g = state.g[c] if g is None else g
+    if graph.verbs[v].cyclic and first.source_region[0] < g - _LATE and loop is not None and q[0] != loop:
         q.insert(0, loop)
+    sync_head(state, c)
+
+
+def sync_head(state: GraphState, c: int) -> None:
+    """Note creature ``c``'s first queued transition in :attr:`GraphState.head` (−1 when the queue is empty)."""
+    if state.head is not None:
+        state.head[c] = state.queue[c][0] if state.queue[c] else -1
 
 
 def command(state: GraphState, creature: int, verb: str | int, stay: bool = False) -> list[int]:
@@ -227,10 +237,17 @@ def command(state: GraphState, creature: int, verb: str | int, stay: bool = Fals
     pose it shows (see the module); otherwise the path starts from the verb being entered once it plays.
     An unknown or unreachable verb raises :class:`CommandRefused` and changes nothing.
     """
-    graph = state.graph
     c = int(creature)
     if not 0 <= c < state.creatures:
         raise CommandRefused(f"no creature {c}: there are {state.creatures}")
+    try:
+        return _command(state, c, verb, stay)
+    finally:
+        sync_head(state, c)
+
+
+def _command(state: GraphState, c: int, verb: str | int, stay: bool) -> list[int]:
+    graph = state.graph
     target = graph.verb_index(verb)
     now = int(state.into[c]) if state.active[c] >= 0 else int(state.verb[c])
     path = graph.path(now, target)  # raises before anything changes
@@ -320,7 +337,12 @@ def _sampling(state: GraphState, v: int, slot: int) -> SamplingState:
         s = state.caches[key] = SamplingState.new(verb, state.creatures)
     if state.fresh is None or key not in state.fresh:  # within a step the adverbs hold still: once is enough
         if s.update(verb, graph.verb_points(v, state.points)) and verb.holds:
-            state.caches[key, "holds"] = verb.hold_times(s.weights)  # when each creature's feet land and lift
+            times = verb.hold_times(s.weights)  # when each creature's feet land and lift
+            held = state.caches.get((key, "holds"))
+            if held is None:
+                state.caches[key, "holds"] = times
+            else:  # in place: the compiled frame holds on to the array
+                held[...] = times
         if state.fresh is not None:
             state.fresh.add(key)
     return s
@@ -373,6 +395,7 @@ def _start(state: GraphState, c: int, late: float, inertial: bool = False) -> No
     ``inertial``: blend it inertially whatever the graph says (a command that interrupted a blend)."""
     graph = state.graph
     k = state.queue[c].pop(0)
+    sync_head(state, c)
     t = graph.transitions[k]
     a, b = graph.verbs[t.source], graph.verbs[t.target]
     (sa, ea), (sb, eb) = t.source_region, t.target_region

@@ -44,6 +44,7 @@ from ..kinematics.floor import FlatFloor, Floor
 from ..motion.clip import Clip
 from ..verb.planting import PlantingReport, report_of_modes
 from .events import NORMAL, SYNC, EventQueue, Processed, VirtualClock, WallClock, run_events
+from .frame import FramePass, supported
 
 EASE = 0.5  # seconds: how long an adverb change takes by default
 MARGIN = 1.25  # the frame interval on the wall clock is at least this many times the measured render cost
@@ -69,6 +70,7 @@ class _Group:
     wander: list[bool] = field(default_factory=list)
     state: GraphState | None = None
     feet: GraphFeet | None = None
+    frame: FramePass | None = None  # the compiled frame (None: the reference path, player.step and plant)
     ease_from: np.ndarray | None = None
     ease_to: np.ndarray | None = None
     ease_start: np.ndarray | None = None
@@ -179,7 +181,9 @@ class Simulation:
     asked for (on the wall clock, the highest); ``seed``: every creature's draws; ``floor``: where feet are
     planted (default flat at 0); ``plant``: plant feet (can be switched while running); ``record``: keep every
     frame for :meth:`Creature.clip` and :meth:`write`; ``realtime``: run on the wall clock (times ``speed``)
-    rather than the virtual one.
+    rather than the virtual one; ``compiled``: step each group's frame in one compiled pass
+    (:mod:`adverbs.runtime.frame`; False: the readable reference path, :func:`adverbs.graph.player.step` then
+    :func:`~adverbs.graph.player.plant`, which any graph the pass cannot take uses anyway).
     """
 
     def __init__(
@@ -192,6 +196,7 @@ class Simulation:
         record: bool = True,
         realtime: bool = False,
         speed: float = 1.0,
+        compiled: bool = True,
     ):
         graphs = [graphs] if isinstance(graphs, Graph) else list(graphs)
         if not graphs or not all(isinstance(g, Graph) for g in graphs):
@@ -203,6 +208,7 @@ class Simulation:
         self.seed = int(seed)
         self.floor = FlatFloor(0.0) if floor is None else floor
         self._plant = bool(plant)
+        self.compiled = bool(compiled)
         self.record = bool(record)
         self.clock = WallClock(speed) if realtime else VirtualClock()
         self.queue = EventQueue()
@@ -389,6 +395,8 @@ class Simulation:
             g.state = new_state(g.graph, g.size, seed, g.starts, points, np.array(g.roots), ~np.array(g.wander))
             if any(v.holds for v in g.graph.verbs):
                 g.feet = planter(g.graph, g.size, self.floor)
+            if self.compiled and supported(g.graph) is None and (g.feet is None or g.feet.planter._compiled is not None):
+                g.frame = FramePass(g.state, g.feet)
             g.ease_from, g.ease_to = points.copy(), points.copy()
             g.ease_start, g.ease_over = np.zeros(g.size), np.zeros(g.size)
         self._started = True
@@ -483,12 +491,15 @@ class Simulation:
             g.ease_over[done] = 0.0
             s.points[done] = g.ease_to[done]
         before = g.shown_active if g.shown_active is not None else np.full(g.size, -1)
-        frame = step(s, dt)
-        g.shown_active = s.active.copy()
-        if g.feet is not None and self._plant:
-            g.rotations, g.translations, _ = plant(g.feet, frame, dt, s.alone)
+        if g.frame is not None:  # one compiled pass
+            g.rotations, g.translations = g.frame.step(dt, plant=self._plant)
         else:
-            g.rotations, g.translations = frame.rotations, frame.translations
+            frame = step(s, dt)
+            if g.feet is not None and self._plant:
+                g.rotations, g.translations, _ = plant(g.feet, frame, dt, s.alone)
+            else:
+                g.rotations, g.translations = frame.rotations, frame.translations
+        g.shown_active = s.active.copy()
         for c in np.flatnonzero((s.active != before) & (s.active >= 0)):
             tr = g.graph.transitions[s.active[c]]
             names = g.graph.verb_names

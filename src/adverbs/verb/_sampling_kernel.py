@@ -50,28 +50,17 @@ def sample_batch(
     reach = np.zeros(nq)
     ng = goal_columns.shape[0]
     for q in range(nq):
-        segs[q], fades[q], vfades[q], cycles[q], t = _phase(
+        segs[q], fades[q], vfades[q], cycles[q], t = phase(
             keytimes, generic, rows[q], times[q], mode, window, ncp, blend[q]
         )
         if ng > 0:
-            reach[q] = _goal_weight(goal_window, t)
+            reach[q] = goal_weight(goal_window, t)
     nv = min(VELOCITIES, nd)
     if nq < GROUPED:
         for q in range(nq):
             c = rows[q]
-            seg = segs[q]
-            _seam_into(out[q], seam[c], fades[q], vfades[q], nv)
-            for e in range(ne):
-                w = weights[c, e]
-                if w == 0.0:
-                    continue
-                a0, a1, a2, a3 = blend[q, 0] * w, blend[q, 1] * w, blend[q, 2] * w, blend[q, 3] * w
-                s0, s1, s2, s3 = segments[seg, e], segments[seg + 1, e], segments[seg + 2, e], segments[seg + 3, e]
-                for d in range(nd):
-                    out[q, d] += a0 * s0[d] + a1 * s1[d] + a2 * s2[d] + a3 * s3[d]
-            if reach[q] != 0.0:
-                for k in range(ng):
-                    out[q, goal_columns[k]] += reach[q] * goal[c, k]
+            query_into(out[q], segments, weights[c], segs[q], blend[q], seam[c], fades[q], vfades[q], nv, reach[q],
+                       goal[c], goal_columns)  # fmt: skip
         return
     flat = np.ascontiguousarray(segments).reshape(ncp * ne, nd)
     order = np.argsort(segs, kind="mergesort")
@@ -102,6 +91,25 @@ def sample_batch(
 
 
 @njit(cache=True, inline="always")
+def query_into(out, segments, weights, seg, blend, seam, fade, vfade, nv, reach, goal, goal_columns):  # pragma: no cover
+    """One query's DOFs ``out (D,)`` one by one (no BLAS): the seam's part, then ``Σ_e Σ_k b_k w_e c_{e, seg+k}``
+    (examples of weight 0 skipped), then the goal's; ``blend (4,)`` and ``seg`` from :func:`phase`."""
+    nd = out.shape[0]
+    _seam_into(out, seam, fade, vfade, nv)
+    for e in range(weights.shape[0]):
+        w = weights[e]
+        if w == 0.0:
+            continue
+        a0, a1, a2, a3 = blend[0] * w, blend[1] * w, blend[2] * w, blend[3] * w
+        s0, s1, s2, s3 = segments[seg, e], segments[seg + 1, e], segments[seg + 2, e], segments[seg + 3, e]
+        for d in range(nd):
+            out[d] += a0 * s0[d] + a1 * s1[d] + a2 * s2[d] + a3 * s3[d]
+    if reach != 0.0:
+        for k in range(goal_columns.shape[0]):
+            out[goal_columns[k]] += reach * goal[k]
+
+
+@njit(cache=True, inline="always")
 def _seam_into(row, seam, fade, vfade, nv):  # pragma: no cover
     """``row (D,)`` = the seam's part of one query, ``fade · seam`` (``vfade`` on the first ``nv`` columns), or zeros.
 
@@ -119,7 +127,7 @@ def _seam_into(row, seam, fade, vfade, nv):  # pragma: no cover
 
 
 @njit(cache=True, inline="always")
-def _phase(keytimes, generic, c, clock, mode, window, ncp, blend):  # pragma: no cover
+def phase(keytimes, generic, c, clock, mode, window, ncp, blend):  # pragma: no cover
     """B-spline segment, seam fades (pose, velocities), cycle and generic time of one query; its basis weights (× 6)
     into ``blend (4,)``."""
     fade = 0.0
@@ -159,7 +167,7 @@ def _phase(keytimes, generic, c, clock, mode, window, ncp, blend):  # pragma: no
 
 
 @njit(cache=True, inline="always")
-def _goal_weight(window, t):  # pragma: no cover
+def goal_weight(window, t):  # pragma: no cover
     """How much of the goal offset is added at generic time ``t``: :func:`adverbs.verb.goal.weight`, for one time."""
     a, m, b = window[0], window[1], window[2]
     if t < m:

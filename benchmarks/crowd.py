@@ -1,0 +1,120 @@
+"""Crowd benchmark: one frame of 1 to 10,000 creatures on the shipped graphs, feet planted, through the one compiled
+pass (:class:`adverbs.runtime.frame.FramePass`) on one thread and on every thread, beside the readable reference
+path (:func:`adverbs.graph.player.step` then :func:`~adverbs.graph.player.plant`, the frame as it was).
+
+    .venv/bin/python benchmarks/crowd.py            (part of make bench)
+
+Each creature starts in a random verb of the graph at a random place and heading and is told to perform a random
+verb every few seconds (a command is an event, done between frames and not timed: it costs the same on both
+paths); between commands it takes the graph's default transitions, so a crowd is always partly in blends. After
+a second untimed (kernels loaded, every path taken), the frames of the next seconds are timed one by one: the
+table gives the median ms a frame and µs per creature. The last rows time 1,000 creatures playing the reach, each
+moving its reach goal (its adverbs) every frame: the goal chain solved anew for every creature, every frame.
+"""
+
+from __future__ import annotations
+
+import statistics
+import time
+import warnings
+from pathlib import Path
+
+import numba
+import numpy as np
+from timing import print_table
+
+from adverbs.errors import AdverbsWarning
+from adverbs.graph import load_graph
+from adverbs.graph.player import command, new_state, plant, planter, step
+from adverbs.runtime.frame import FramePass
+
+GRAPHS = Path(__file__).resolve().parent.parent / "graphs"
+DT = 1.0 / 30.0
+SIZES = (1, 100, 1_000, 10_000)
+
+
+def _crowd(graph, n: int, seed: int = 0):
+    rng = np.random.default_rng(seed)
+    side = int(np.ceil(np.sqrt(n)))
+    roots = np.c_[3.0 * (np.arange(n) % side), 3.0 * (np.arange(n) // side), rng.uniform(0, 2 * np.pi, n)]
+    start = [str(v) for v in rng.choice(graph.verb_names, n)]
+    state = new_state(graph, n, seed, start, root=roots)
+    return state, planter(graph, n), rng
+
+
+def frame_ms(graph, n: int, path: str, seconds: float) -> float:
+    """Median wall milliseconds of one frame of ``n`` creatures on ``path`` (reference, 1 thread, all threads)."""
+    state, feet, rng = _crowd(graph, n)
+    if path == "reference":
+        def one() -> None:
+            frame = step(state, DT)
+            plant(feet, frame, DT, state.alone)
+    else:
+        fp = FramePass(state, feet, threads=1 if path == "1 thread" else None)
+
+        def one() -> None:
+            fp.step(DT)
+    times = []
+    frames = int(seconds / DT)
+    warm = int(1.0 / DT)
+    period = int(2.5 / DT)
+    due = rng.integers(0, period, n)  # each creature's command frame in every 2.5 s
+    for f in range(warm + frames):
+        for c in np.flatnonzero(due == f % period):
+            command(state, int(c), str(rng.choice(graph.verb_names)), stay=bool(rng.random() < 0.5))
+        t = time.perf_counter()
+        one()
+        if f >= warm:
+            times.append(time.perf_counter() - t)
+    return statistics.median(times) * 1e3
+
+
+def goal_ms(graph, n: int, compiled: bool, frames: int = 20) -> float:
+    """Median ms a frame of ``n`` creatures playing the reach, each moving its goal (hand_x, hand_y, hand_z) a little
+    every frame."""
+    state = new_state(graph, n, 0, "reach", stay=True)
+    feet = planter(graph, n)
+    fp = FramePass(state, feet) if compiled else None
+    cols = [graph.adverb_names.index(a) for a in ("hand_x", "hand_y", "hand_z")]
+    lo, hi = graph.adverb_range(0.0)
+    rng = np.random.default_rng(1)
+    state.points[:, cols] = rng.uniform(lo[cols], hi[cols], (n, 3))
+    times = []
+    for f in range(frames + 3):
+        state.points[:, cols] = np.clip(state.points[:, cols] + rng.normal(0, 0.005, (n, 3)), lo[cols], hi[cols])
+        t = time.perf_counter()
+        if fp is not None:
+            fp.step(DT)
+        else:
+            plant(feet, step(state, DT), DT, state.alone)
+        if f >= 3:
+            times.append(time.perf_counter() - t)
+    return statistics.median(times) * 1e3
+
+
+def main() -> None:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", AdverbsWarning)
+        graphs = {name: load_graph(GRAPHS / f"{name}.toml") for name in ("bandai", "cmu")}
+    threads = numba.config.NUMBA_NUM_THREADS
+    rows = []
+    for name, graph in graphs.items():
+        for n in SIZES:
+            seconds = 3.0 if n <= 1_000 else 1.0
+            cells = []
+            for path in ("reference", "1 thread", f"{threads} threads"):
+                ms = frame_ms(graph, n, path if path != f"{threads} threads" else "all", seconds)
+                cells.append(f"{ms:.3f} ms ({ms * 1e3 / n:.1f} µs)" if n < 1_000 else f"{ms:.1f} ms ({ms * 1e3 / n:.1f} µs)")
+            rows.append((f"{name}, {n:,} creature{'s' if n > 1 else ''}", *cells))
+    bandai = graphs["bandai"]
+    rows.append((
+        "bandai, 1,000 reaching, every goal moved every frame", f"{goal_ms(bandai, 1000, False):.0f} ms",
+        "", f"{goal_ms(bandai, 1000, True):.0f} ms",
+    ))  # fmt: skip
+    header = ("one frame, feet planted (median; µs per creature)", "today's path (reference)", "compiled, 1 thread",
+              f"compiled, {threads} threads")  # fmt: skip
+    print_table(header, rows)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,501 @@
+"""The one compiled pass of a frame: every creature of a group, from its clocks to its planted pose.
+
+:func:`frame` is :func:`adverbs.graph.player.step` followed by :func:`adverbs.graph.player.plant` (the readable
+path, which stays the reference) for every creature at once, with no Python per creature: clocks (a verb alone
+by its own, a transition by ``β``; a transition starting or finishing where the region says) → the verbs
+sampled (one, or two in a blend) → root velocities blended → root advanced → poses decoded and blended → the
+decaying offsets of inertial blends and interruptions → hold phases → the body carried by the held feet → the
+feet planted (the planter's own kernel, :func:`adverbs.verb._planting_kernel.step`) → feet to re-place.
+
+Each piece calls the same compiled arithmetic the reference path calls (the sampling query, the decode, the
+slerp blend, the spring, FK), creature by creature, so a frame equals the reference's to rounding;
+``tests/test_frame.py`` holds them together over a long seeded run. Creatures are independent: each thread of
+:class:`~adverbs.runtime.frame.FramePass` runs its own range of them (the kernel releases the GIL), chunk by
+chunk, and the results do not depend on how many threads run them.
+
+What stays in Python (:mod:`adverbs.runtime.frame`) is discrete: commands, the queue (a transition popped
+when one starts, drawn by likelihood when it empties), latencies, and the verbs' cached weights and keytimes
+brought up to date when the adverbs move. The kernel marks in ``events`` which creatures started (1) or
+finished (2) a transition this frame, for Python to settle their queues.
+
+Arguments come in tuples (``frame.FramePass`` lays them out once):
+
+* ``verbs`` per verb (typed lists where shapes differ): ``segments`` ``(NumCP, E, D)``, ``generic`` ``(N,)``,
+  ``cyclic (V,)``, ``goal_columns``, ``goal_window (V, 3)``, the log-quaternion decode (``rotated``, ``reference``,
+  ``translated``, ``base``, ``body (V,)``, ``has_parent (V,)``, ``parent_inv (V, 4)``, ``parent_pos (V, 3)``) and
+  the holds (``opens``, ``cols`` in the graph's feet, ``has_holds (V,)``).
+* ``transitions``: ``regions (T, 4)`` (source start and end, target start and end), ``target (T,)``,
+  ``inertial (T,)``, ``between (T,)`` (from one verb to another).
+* ``caches`` per verb and slot (index ``2 v + slot``; slot 0 is the verb playing, 1 the one being entered):
+  each creature's ``weights``, ``keytimes``, ``seam``, ``goal`` and hold times.
+* ``state``: :class:`~adverbs.graph.player.GraphState`'s arrays, updated in place.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ..graph._blend_kernel import decay_row, keep_feet_row
+from ..graph._time_kernel import _clock, _generic
+from ..motion._pose_kernel import _log, _mul, advance_root_row, blend_row, decode_row, root_velocity_row
+from ..verb._planting_kernel import step as plant_step
+from ..verb._planting_scalars import hold_mode, spring
+from ..verb._sampling_kernel import GENERIC, VELOCITIES, goal_weight, phase, query_into
+
+STARTED, FINISHED = 1, 2  # events: a transition started, or finished, this frame
+FREE, BALL = 0, 2  # planting.FREE, planting.BALL
+# Where each constant sits in ``k_`` (see frame.FramePass).
+_LATE, _MIN_DURATION, _INERTIAL, _SEAM, _LN2, _REPLANT, _REPLANTED, _SETTLE, _SWING, _LIFT = range(10)
+
+
+@njit(cache=True, inline="always")
+def _keys(caches, v, slot, c):
+    """Creature ``c``'s keytimes ``(N,)`` of verb ``v`` in ``slot``."""
+    return caches[1][2 * v + slot][c]
+
+
+@njit(cache=True)
+def _clock_of(g, v, slot, c, verbs, caches):  # pragma: no cover - compiled
+    """``player._clock``: clock time of generic time ``g`` of creature ``c`` in verb ``v`` (slot)."""
+    generic = verbs[1][v]
+    return _clock(g, _keys(caches, v, slot, c), generic, generic.shape[0])
+
+
+@njit(cache=True)
+def _generic_of(clock, v, slot, c, verbs, caches):  # pragma: no cover - compiled
+    """``player._generic``: the inverse of :func:`_clock_of`."""
+    generic = verbs[1][v]
+    return _generic(clock, _keys(caches, v, slot, c), generic, generic.shape[0])
+
+
+@njit(cache=True)
+def _later(g, seconds, v, slot, c, verbs, caches):  # pragma: no cover - compiled
+    """``player._later``: the generic time ``seconds`` of the creature's clock after ``g``."""
+    generic = verbs[1][v]
+    keys = _keys(caches, v, slot, c)
+    n = generic.shape[0]
+    return _generic(_clock(g, keys, generic, n) + seconds, keys, generic, n)
+
+
+@njit(cache=True)
+def _region_clocks(c, verbs, caches, state):  # pragma: no cover - compiled
+    """``player._region_clocks``: clock times of the start and end of A's region and of B's."""
+    verb, into, regions = state[0], state[2], state[7]
+    a, b = verb[c], into[c]
+    return (
+        _clock_of(regions[c, 0], a, 0, c, verbs, caches), _clock_of(regions[c, 1], a, 0, c, verbs, caches),
+        _clock_of(regions[c, 2], b, 1, c, verbs, caches), _clock_of(regions[c, 3], b, 1, c, verbs, caches),
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def _rates(c, verbs, caches, state):  # pragma: no cover - compiled
+    """``player._rates``: how fast A's and B's clocks run in creature ``c``'s transition."""
+    ca0, ca1, cb0, cb1 = _region_clocks(c, verbs, caches, state)
+    length = state[6][c]
+    rate_b = 1.0 if state[9][c] else (cb1 - cb0) / length
+    return (ca1 - ca0) / length, rate_b
+
+
+@njit(cache=True)
+def _place(c, verbs, caches, state):  # pragma: no cover - compiled
+    """``player._place``: A and B of creature ``c`` where ``β`` says, each clock through its region."""
+    verb, g, into, g_into, beta, length, inertial = state[0], state[1], state[2], state[3], state[5], state[6], state[9]
+    ca0, ca1, cb0, cb1 = _region_clocks(c, verbs, caches, state)
+    b = beta[c]
+    g[c] = _generic_of(ca0 + b * (ca1 - ca0), verb[c], 0, c, verbs, caches)
+    run = length[c] if inertial[c] else cb1 - cb0
+    g_into[c] = _generic_of(cb0 + b * run, into[c], 1, c, verbs, caches)
+
+
+@njit(cache=True)
+def _start(c, late, k, verbs, transitions, caches, state, k_):  # pragma: no cover - compiled
+    """``player._start``: creature ``c`` starts transition ``k``; ``late``: seconds of this frame left after its region
+    began. (Python pops it off the queue afterwards.)"""
+    verb, g, into, g_into, active, beta, length, regions = state[:8]
+    inertial, rebase, halflife = state[9], state[10], state[17]
+    t_regions, t_target, t_inertial = transitions[0], transitions[1], transitions[2]
+    source, target = verb[c], t_target[k]
+    sa, ea, sb, eb = t_regions[k, 0], t_regions[k, 1], t_regions[k, 2], t_regions[k, 3]
+    gc = g[c]
+    if gc > sa + k_[_LATE]:  # the region has begun already (a one-shot verb past it, or a loop begun late)
+        if gc < ea:
+            sb += (gc - sa) / (ea - sa) * (eb - sb)
+            sa = gc
+        else:
+            sa = ea = gc
+    if verbs[2][target] and eb >= 1.0:  # B plays the end of its previous cycle
+        sb, eb = sb - 1.0, eb - 1.0
+    length_a = _clock_of(ea, source, 0, c, verbs, caches) - _clock_of(sa, source, 0, c, verbs, caches)
+    length_b = _clock_of(eb, target, 1, c, verbs, caches) - _clock_of(sb, target, 1, c, verbs, caches)
+    duration = 0.5 * (length_a + length_b)
+    active[c], into[c] = k, target
+    regions[c, 0], regions[c, 1], regions[c, 2], regions[c, 3] = sa, ea, sb, eb
+    length[c] = max(duration, k_[_MIN_DURATION])
+    beta[c] = min(late / length[c], 1.0)
+    g_into[c] = sb
+    inertial[c] = t_inertial[k]
+    if inertial[c]:  # B at once, the pose shown decaying onto it
+        rebase[c] = True
+        halflife[c] = max(k_[_INERTIAL] * length[c], 0.0)
+
+
+@njit(cache=True)
+def _finish(c, verbs, state):  # pragma: no cover - compiled
+    """``player._finish`` without the queue (Python settles it): B plays on alone."""
+    verb, g, into, g_into, active = state[0], state[1], state[2], state[3], state[4]
+    verb[c], g[c] = into[c], g_into[c]
+    if g[c] < 0.0 and abs(g[c]) < 1e-9:
+        g[c] = 0.0
+    if not verbs[2][verb[c]]:
+        g[c] = min(g[c], 1.0)
+    elif g[c] >= 1.0:  # a blend turned back ran a cycle past its end: on in the next
+        g[c] -= math.floor(g[c])
+    active[c], into[c] = -1, -1
+
+
+@njit(cache=True)
+def _advance(c, dt, verbs, transitions, caches, state, head, events, g_settle, k_):  # pragma: no cover - compiled
+    """``player._advance`` for creature ``c``: its times moved on by ``dt``, transitions started and finished."""
+    verb, g, active, beta, length = state[0], state[1], state[4], state[5], state[6]
+    moving = active[c] >= 0
+    if moving:
+        beta[c] += dt / length[c]
+    else:
+        v = verb[c]
+        g_new = _later(g[c], dt, v, 0, c, verbs, caches)
+        k = head[c]  # the queue's first transition (Python keeps it: never none for a verb playing alone)
+        nxt = transitions[0][k, 0] if k >= 0 else np.inf
+        begins = g_new >= nxt - k_[_LATE]
+        if not verbs[2][v]:
+            g_new = min(g_new, 1.0)
+        if begins:
+            clock = _clock_of(g[c], v, 0, c, verbs, caches) + dt
+            at = _clock_of(max(nxt, g[c]), v, 0, c, verbs, caches)
+            g[c] = max(nxt, min(g[c], 1.0))
+            _start(c, max(clock - at, 0.0), k, verbs, transitions, caches, state, k_)
+            events[c] = STARTED
+        else:
+            g[c] = g_new
+    if moving and beta[c] >= 1.0:  # the transition ends this frame
+        over = (beta[c] - 1.0) * length[c]
+        beta[c] = 1.0
+        _place(c, verbs, caches, state)
+        _finish(c, verbs, state)
+        events[c] = FINISHED
+        g_settle[c] = g[c]
+        if over > 0:  # the rest of the frame, B alone
+            g[c] = _later(g[c], over, verb[c], 0, c, verbs, caches)
+    if active[c] >= 0:
+        _place(c, verbs, caches, state)
+
+
+@njit(cache=True)
+def _dofs(out, v, slot, c, g, verbs, caches, blend):  # pragma: no cover - compiled
+    """``player._dofs`` of one creature: verb ``v``'s DOFs at generic time ``g`` (another cycle's shifted by the seam)
+    into ``out[:D]``."""
+    segments, generic, goal_window = verbs[0][v], verbs[1][v], verbs[4][v]
+    k = 2 * v + slot
+    seam = caches[2][k][c]
+    nd = segments.shape[2]
+    lap = math.floor(g)
+    local = min(max(g - lap, 0.0), 1.0)
+    # Generic times: no cycle, so no seam fade (its window is not read).
+    seg, fade, vfade, _, t = phase(caches[1][k], generic, c, local, GENERIC, 0.0, segments.shape[0], blend)
+    columns = verbs[3][v]
+    reach = goal_weight(goal_window, t) if columns.shape[0] > 0 else 0.0
+    query_into(out[:nd], segments, caches[0][k][c], seg, blend, seam, fade, vfade, min(VELOCITIES, nd), reach,
+               caches[3][k][c], columns)  # fmt: skip
+    if verbs[2][v]:
+        for d in range(VELOCITIES, nd):
+            out[d] += lap * seam[d]
+
+
+@njit(cache=True)
+def _base(c, ga, gb, verbs, caches, state, d_a, d_b, vel, blend):  # pragma: no cover - compiled
+    """``player._sample`` of one creature at A's and B's generic times: DOFs into ``d_a``, ``d_b``, the blended root
+    velocities into ``vel (3,)``; returns A's blend weight ``α`` (1 alone, 0 inertial)."""
+    verb, into, active, beta, inertial = state[0], state[2], state[4], state[5], state[9]
+    moving = active[c] >= 0
+    inert = moving and inertial[c]
+    rate_a, rate_b, alpha = 1.0, 1.0, 1.0
+    if moving:
+        rate_a, rate_b = _rates(c, verbs, caches, state)
+        alpha = 0.0 if inert else 0.5 * math.cos(min(max(beta[c], 0.0), 1.0) * np.pi) + 0.5
+        _dofs(d_b, into[c], 1, c, gb, verbs, caches, blend)
+    vel[0], vel[1], vel[2] = 0.0, 0.0, 0.0
+    if not inert:
+        _dofs(d_a, verb[c], 0, c, ga, verbs, caches, blend)
+        w = alpha * rate_a
+        for a in range(3):
+            vel[a] += w * d_a[a]
+    if moving:
+        w = (1.0 - alpha) * rate_b
+        for a in range(3):
+            vel[a] += w * d_b[a]
+        if gb < 0.0:  # B playing its previous cycle: its velocities' seam taken off (player._seam_rise)
+            b = beta[c]
+            u = 1.0 - (1.0 - b) ** 2 * (1.0 + 2.0 * b) - 3.0 * b * (1.0 - b)
+            seam = caches[2][2 * into[c] + 1][c]
+            w = u * rate_b
+            for a in range(3):
+                vel[a] -= w * seam[a]
+    return alpha
+
+
+@njit(cache=True)
+def _decode(c, x, z, heading, alpha, verbs, state, d_a, d_b, rot, trans, rot_b, trans_b):  # pragma: no cover
+    """``player._decode`` of one creature at the root ``(x, z, heading)``: A and B decoded, then blended."""
+    verb, into, active, inertial = state[0], state[2], state[4], state[9]
+    moving = active[c] >= 0
+    if not (moving and inertial[c]):
+        _decode_verb(verb[c], d_a, x, z, heading, verbs, rot, trans)
+    if moving:
+        _decode_verb(into[c], d_b, x, z, heading, verbs, rot_b, trans_b)
+        blend_row(rot, trans, rot_b, trans_b, alpha)
+
+
+@njit(cache=True, inline="always")
+def _decode_verb(v, d, x, z, heading, verbs, rot, trans):  # pragma: no cover - compiled
+    decode_row(
+        d, x, z, heading, verbs[5][v], verbs[6][v], verbs[7][v], verbs[8][v], verbs[9][v], verbs[11][v], verbs[12][v],
+        verbs[10][v], rot, trans,
+    )  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def _relative_into(a, b, out):  # pragma: no cover - compiled
+    """``player._relative`` of one joint: the rotation vector of ``a b⁻¹`` the short way round, into ``out (3,)``."""
+    x, y, z, w = _mul(a[0], a[1], a[2], a[3], -b[0], -b[1], -b[2], b[3])
+    if w < 0.0:
+        x, y, z, w = -x, -y, -z, -w
+    out[0], out[1], out[2] = _log(x, y, z, w)
+
+
+@njit(cache=True)
+def _phases(v, slot, c, g, verbs, caches, held, roll, swing):  # pragma: no cover - compiled
+    """``player.hold_phases`` of one verb instance: its holds at generic time ``g`` into the graph's feet columns."""
+    for i in range(held.shape[0]):
+        held[i], roll[i], swing[i] = False, 0.0, 0.0
+    if not verbs[15][v]:
+        return
+    opens, cols, cyclic = verbs[13][v], verbs[14][v], verbs[2][v]
+    times = caches[4][2 * v + slot][c]
+    t = g - math.floor(g) if cyclic else min(max(g, 0.0), 1.0)
+    for k in range(opens.shape[0]):
+        held[cols[k]], roll[cols[k]], swing[cols[k]] = hold_mode(cyclic, t, opens[k], times[k])
+
+
+@njit(cache=True)
+def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, buffers, outputs, k_,
+              scratch):  # pragma: no cover  # fmt: skip
+    """``player._step`` for creature ``c``: its pose (not yet planted) into ``buffers``' new rows, its state moved on."""
+    first, has_shown, has_before, has_held_before = flags
+    verb, g, into, g_into, active, beta = state[:6]
+    inertial, rebase = state[9], state[10]
+    offset_rot, offset_rot_vel, offset_trans, offset_trans_vel = state[11], state[12], state[13], state[14]
+    offset_root, offset_since, offset_halflife, moving, root, held_before = state[15:21]
+    rot, trans, vel_out, shown_rot, shown_trans, before_rot, before_trans = buffers
+    held, roll, swing, alone, events, g_settle = outputs
+    parents, feet, above_inv, body = skeleton
+    d_a, d_b, e_a, e_b, vel, vel0, r1, r2, blend = scratch[:9]
+    rot_b, trans_b, rot0, trans0, hb, rb, sb, wts = scratch[9:17]
+    fk_now_pos, fk_now_rot, fk_was_pos, fk_was_rot = scratch[17:]
+    if first:  # the first step without a first frame: the velocities where the creature starts
+        _base(c, g[c], g_into[c], verbs, caches, state, d_a, d_b, vel, blend)
+        for a in range(3):
+            moving[c, a] = vel[a]
+    _advance(c, dt, verbs, transitions, caches, state, head, events, g_settle, k_)
+    alpha = _base(c, g[c], g_into[c], verbs, caches, state, d_a, d_b, vel, blend)
+    reb = rebase[c] and has_shown
+    rebase[c] = False
+    x0, z0, h0 = root[c, 0], root[c, 1], root[c, 2]
+    alpha0 = 0.0
+    if reb:  # carry on from what was shown: the verbs' times a frame ago (player._back), sampled there
+        gb = g_into[c]
+        rate_a = 1.0
+        if active[c] >= 0:
+            rate_a, rate_b = _rates(c, verbs, caches, state)
+            gb = _generic_of(_clock_of(g_into[c], into[c], 1, c, verbs, caches) - dt * rate_b, into[c], 1, c, verbs, caches)
+        ga = _generic_of(_clock_of(g[c], verb[c], 0, c, verbs, caches) - dt * rate_a, verb[c], 0, c, verbs, caches)
+        alpha0 = _base(c, ga, gb, verbs, caches, state, e_a, e_b, vel0, blend)
+        for a in range(3):
+            offset_root[c, a] = moving[c, a] - vel0[a]
+    offset_since[c] += dt
+    if reb:
+        offset_since[c] = dt  # the offset was taken a frame ago, at what was shown then
+    live = offset_since[c] < 12.0 * offset_halflife[c]
+    if live:
+        for a in range(3):
+            vel[a] += spring(offset_root[c, a], 0.0, offset_since[c], offset_halflife[c], k_[_LN2])
+    # The root moves at the velocities of the step's start (a frame's velocity is its step to the next).
+    x1, z1, h1 = advance_root_row(x0, z0, h0, moving[c, 0], moving[c, 1], moving[c, 2], dt)
+    for a in range(3):
+        moving[c, a] = vel[a]
+    _decode(c, x1, z1, h1, alpha, verbs, state, d_a, d_b, rot[c], trans[c], rot_b, trans_b)
+    if reb:
+        # The pose a frame ago, at the root then; the offset is what was shown less it.
+        _decode(c, x0, z0, h0, alpha0, verbs, state, e_a, e_b, rot0, trans0, rot_b, trans_b)
+        n_j = rot0.shape[0]
+        for j in range(n_j):
+            _relative_into(shown_rot[c, j], rot0[j], offset_rot[c, j])
+            for a in range(3):
+                offset_trans[c, j, a] = shown_trans[c, j, a] - trans0[j, a]
+                offset_rot_vel[c, j, a] = 0.0
+                offset_trans_vel[c, j, a] = 0.0
+        if has_before:
+            for j in range(n_j):
+                _relative_into(shown_rot[c, j], before_rot[c, j], r1)
+                _relative_into(rot[c, j], rot0[j], r2)
+                for a in range(3):
+                    offset_rot_vel[c, j, a] = (r1[a] - r2[a]) / dt
+                    offset_trans_vel[c, j, a] = ((shown_trans[c, j, a] - before_trans[c, j, a])
+                                                 - (trans[c, j, a] - trans0[j, a])) / dt  # fmt: skip
+        # The root's own travel is the root's: only heights and the pose carry an offset.
+        offset_trans[c, body, 0] = offset_trans[c, body, 2] = 0.0
+        offset_trans_vel[c, body, 0] = offset_trans_vel[c, body, 2] = 0.0
+    if live:
+        decay_row(offset_since[c], offset_halflife[c], offset_rot[c], offset_rot_vel[c], offset_trans[c],
+                  offset_trans_vel[c], rot[c], trans[c], k_[_LN2])  # fmt: skip
+    # Hold phases: A's, B's, or both (held only where both hold it).
+    is_moving = active[c] >= 0
+    inert = is_moving and inertial[c]
+    if not inert:
+        _phases(verb[c], 0, c, g[c], verbs, caches, held[c], roll[c], swing[c])
+    if is_moving:
+        _phases(into[c], 1, c, g_into[c], verbs, caches, hb, rb, sb)
+        for i in range(hb.shape[0]):
+            if inert:
+                held[c, i], roll[c, i], swing[c, i] = hb[i], rb[i], sb[i]
+            else:
+                held[c, i] = held[c, i] and hb[i]
+                roll[c, i] = max(roll[c, i], rb[i])
+                swing[c, i] = min(swing[c, i], sb[i])
+    alone[c] = not is_moving and not live
+    # The body carried by the held feet's slip in a blend (player._keep_feet).
+    root[c, 0], root[c, 1], root[c, 2] = x1, z1, h1
+    if has_shown and has_held_before:
+        blending = live or (is_moving and not inertial[c] and transitions[3][active[c]])
+        if blending:
+            for i in range(feet.shape[0]):
+                wts[i] = (1.0 if (held[c, i] and held_before[c, i]) else 0.0) * (1.0 - roll[c, i])
+            keep_feet_row(
+                parents, feet, wts, rot[c : c + 1], trans[c : c + 1], shown_rot[c : c + 1], shown_trans[c : c + 1], body,
+                above_inv, root[c], fk_now_pos, fk_now_rot, fk_was_pos, fk_was_rot,
+            )  # fmt: skip
+    vel_out[c, 0], vel_out[c, 1], vel_out[c, 2] = root_velocity_row(x0, z0, h0, root[c, 0], root[c, 1], root[c, 2], dt)
+    for i in range(feet.shape[0]):
+        held_before[c, i] = held[c, i]
+
+
+@njit(cache=True)
+def _scratch(n_d, n_j, n_l):  # pragma: no cover - compiled
+    """One chunk's working arrays (see :func:`_creature`)."""
+    return (
+        np.empty(n_d), np.empty(n_d), np.empty(n_d), np.empty(n_d), np.empty(3), np.empty(3), np.empty(3), np.empty(3),
+        np.empty(4), np.empty((n_j, 4)), np.empty((n_j, 3)), np.empty((n_j, 4)), np.empty((n_j, 3)),
+        np.empty(n_l, dtype=np.bool_), np.empty(n_l), np.empty(n_l), np.empty(n_l), np.empty((1, n_j, 3)),
+        np.empty((1, n_j, 4)), np.empty((1, n_j, 3)), np.empty((1, n_j, 4)),
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def _chunk(lo, hi, dt, flags, verbs, transitions, skeleton, caches, state, head, buffers, outputs, k_, n_d,
+           planted):  # pragma: no cover  # fmt: skip
+    """Creatures ``lo`` to ``hi``: :func:`_creature` for each, their poses copied into ``planted = (rot, trans)``."""
+    rot, trans = buffers[0], buffers[1]
+    out_rot, out_trans = planted
+    n_j = rot.shape[1]
+    scratch = _scratch(n_d, n_j, skeleton[1].shape[0])
+    for c in range(lo, hi):
+        _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, buffers, outputs, k_, scratch)
+        for j in range(n_j):
+            for a in range(4):
+                out_rot[c, j, a] = rot[c, j, a]
+            for a in range(3):
+                out_trans[c, j, a] = trans[c, j, a]
+
+
+@njit(cache=True, nogil=True)
+def frame(lo, hi, dt, flags, turns, box):  # pragma: no cover - compiled
+    """One frame of creatures ``lo`` to ``hi``, feet not planted: :func:`_chunk`, chunk by chunk. Releases the GIL:
+    threads run other ranges of creatures at the same time.
+
+    ``flags = (first, shown, shown before, held before, planter starting, any foot re-placed)``; ``turns``: which
+    of the three pose buffers is new, shown and shown before, and which of the two planted ones is written.
+    ``box``: a one-item typed list of what does not change from frame to frame (passing it costs one argument
+    where its arrays would cost a hundred): ``(verbs, transitions, skeleton, caches, state, head, poses, outputs,
+    k_, chunk, n_d, planted)``.
+    """
+    return _frame(lo, hi, dt, flags, turns, box[0], None)
+
+
+@njit(cache=True, nogil=True)
+def frame_planted(lo, hi, dt, flags, turns, box, feet):  # pragma: no cover - compiled
+    """:func:`frame`, then :func:`_plant` on each chunk's poses; ``feet``: a one-item typed list of the planter's
+    arrays. Returns whether every foot target was finite."""
+    return _frame(lo, hi, dt, flags, turns, box[0], feet[0])
+
+
+@njit(cache=True)
+def _frame(lo, hi, dt, flags, turns, boxed, feet):  # pragma: no cover - compiled
+    verbs, transitions, skeleton, caches, state, head, poses, outputs, k_, chunk, n_d, planted_sets = boxed
+    new, shown, before = poses[turns[0]], poses[turns[1]], poses[turns[2]]
+    buffers = (new[0], new[1], new[2], shown[0], shown[1], before[0], before[1])
+    planted = planted_sets[turns[3]]
+    finite = True
+    for start in range(lo, hi, chunk):
+        stop = min(start + chunk, hi)
+        _chunk(start, stop, dt, flags[:4], verbs, transitions, skeleton, caches, state, head, buffers, outputs, k_,
+               n_d, planted)  # fmt: skip
+        if feet is not None:
+            finite = _plant(start, stop, outputs, planted, feet, flags[4], flags[5], k_) and finite
+    return finite
+
+
+@njit(cache=True)
+def _plant(lo, hi, outputs, planted, feet, start, any_replanting, k_):  # pragma: no cover - compiled
+    """``player.plant`` for creatures ``lo`` to ``hi``: the planter's kernel on their poses (in place), then which feet
+    to re-place (``GraphFeet``). ``start``: the planter's first frame; ``any_replanting``: any foot being re-placed."""
+    held, roll, swing, alone = outputs[0], outputs[1], outputs[2], outputs[3]
+    (parents, generic, inside, dts, times, cyclic, verb_floor, tips, root, legs, constants, floor, st, chain,
+     ik_params, scratch, drop, residual, replanting) = feet  # fmt: skip
+    rot, trans = planted
+    n_l = held.shape[1]
+    for c in range(lo, hi):
+        for i in range(n_l):
+            inside[c, i] = held[c, i] and not replanting[c, i]
+    s = slice(lo, hi)
+    sliced = (
+        st[0][s], st[1][s], st[2][s], st[3][s], st[4][s], st[5][s], st[6][s], st[7][s], st[8][s], st[9][s], st[10][s],
+        st[11][s], st[12][s], st[13][s], st[14][s], st[15][s],
+    )  # fmt: skip
+    out = (scratch[0][s], scratch[1][s], scratch[2][s], scratch[3][s], drop[s], residual[s])
+    finite = plant_step(
+        parents, rot[s], trans[s], generic[s], inside[s], roll[s], swing[s], True, dts[s], start, times[s], cyclic,
+        verb_floor, tips, root, legs, constants, floor, sliced, chain, ik_params, out,
+    )  # fmt: skip
+    mode, turn, target, offset, offset_vel, since, settle, prev_free = st[0], st[1], st[2], st[4], st[5], st[6], st[11], st[14]
+    ln2 = k_[_LN2]
+    for c in range(lo, hi):
+        for i in range(n_l):
+            if any_replanting and replanting[c, i]:
+                # Settled once the free rule's offset (FootPlanter._offset) has decayed to REPLANTED.
+                norm = 0.0
+                if not settle[c, i]:
+                    sq = 0.0
+                    for a in range(3):
+                        h = k_[_LIFT] if a == 1 else k_[_SWING]
+                        x = spring(offset[c, i, a], offset_vel[c, i, a], since[c, i, a], h, ln2)
+                        sq += x * x
+                    norm = math.sqrt(sq)
+                if mode[c, i] == FREE and norm < k_[_REPLANTED] and since[c, i, 0] > 0:
+                    replanting[c, i] = False
+            if alone[c] and mode[c, i] == BALL and turn[c, i] == 0.0:
+                gap = math.hypot(prev_free[c, i, 0] - target[c, i, 0], prev_free[c, i, 2] - target[c, i, 2])
+                if gap > k_[_REPLANT]:
+                    replanting[c, i] = True
+    return finite

@@ -1,0 +1,367 @@
+"""The frame as one compiled pass: events decide in Python, every creature's frame runs in one kernel.
+
+Two kinds of work, kept apart (the runtime of §6, laid out as ozz-animation lays out its jobs):
+
+* **Events decide**, in Python, at the times they happen: a command (:func:`adverbs.graph.player.command`), the
+  queue (a transition popped when it starts, one drawn by likelihood when the queue empties), a latency noted,
+  an adverb point changed (each verb's cached weights, keytimes and hold times brought up to date for the
+  creatures whose point moved). They write into the creatures' arrays: the
+  :class:`~adverbs.graph.player.GraphState` and the planter's state, owned by the caller.
+* **Frames compute**: :meth:`FramePass.step` runs :func:`adverbs.runtime._frame_kernel.frame` once for every
+  creature of a group — clocks → sample (one or two verbs) → blend → decode → advance the root → FK → plant →
+  IK → the pose shown — reading the graph's immutable tables (laid out once, :func:`tables`) and those arrays,
+  on every core, with no Python per creature. One creature is ``C = 1`` through the same pass.
+
+The pass computes what :func:`adverbs.graph.player.step` then :func:`adverbs.graph.player.plant` compute (the
+readable path, kept as the reference and for what the kernel does not take: DOF encodings other than
+log-quaternions, floors given as Python functions): ``tests/test_frame.py`` holds the two together over a long
+seeded run of the shipped graphs, and holds one thread to all.
+
+The poses a step returns are the pass's own buffers, written again two frames later: copy what you keep.
+"""
+
+from __future__ import annotations
+
+import math
+import operator
+from dataclasses import dataclass
+from weakref import WeakKeyDictionary
+
+import numpy as np
+from numba import typed
+
+from ..errors import AdverbsError
+from ..graph import player
+from ..graph.player import GraphFeet, GraphState, sync_head
+from ..graph.structure import Graph
+from ..verb import planting
+from ..verb.sampling import SEAM_BLEND
+from . import _frame_kernel as kernel
+
+CHUNK = 64  # creatures: each chunk allocates the kernel's working arrays once a frame, and plants its feet in one call
+PER_THREAD = 32  # creatures: fewer than this many per thread run on the calling thread alone
+
+
+@dataclass(frozen=True, eq=False)
+class Tables:
+    """A graph's immutable tables as the kernel takes them (see :mod:`._frame_kernel`): ``verbs``, ``transitions``,
+    the widest DOF row ``dofs``, and the skeleton's ``parents``, feet, inverse rest rotation above the body root
+    and the body root."""
+
+    verbs: tuple
+    transitions: tuple
+    target: np.ndarray
+    dofs: int
+    skeleton: tuple
+
+
+_TABLES: WeakKeyDictionary = WeakKeyDictionary()
+
+
+def supported(graph: Graph) -> str | None:
+    """Why the compiled pass cannot play ``graph`` (None if it can)."""
+    for v in graph.verbs:
+        if v.encoding.kind != "logquat":
+            return f"verb {v.name!r} is encoded as {v.encoding.kind!r}; the compiled frame decodes log-quaternions"
+    return None
+
+
+def tables(graph: Graph) -> Tables:
+    """``graph``'s tables laid out for the kernel (once per graph; a graph never changes)."""
+    found = _TABLES.get(graph)
+    if found is not None:
+        return found
+    why = supported(graph)
+    if why:
+        raise AdverbsError(f"graph {graph.name!r}: {why}")
+
+    def listed(arrays, dtype=float):
+        out = typed.List()
+        for a in arrays:
+            out.append(np.ascontiguousarray(a, dtype=dtype))
+        return out
+
+    vs = graph.verbs
+    enc = [v.encoding for v in vs]
+    no_window = np.zeros(3)
+    verbs = (
+        listed(v.segments for v in vs),
+        listed(v.generic_keytimes for v in vs),
+        np.array([v.cyclic for v in vs], dtype=np.bool_),
+        listed((np.zeros(0) if v.goal is None else v.goal.columns for v in vs), np.int64),
+        np.array([no_window if v.goal is None else v.goal.window for v in vs], dtype=float),
+        listed((e.rotated for e in enc), np.int64),
+        listed(e.reference for e in enc),
+        listed((e.translated for e in enc), np.int64),
+        listed(e.base_translations for e in enc),
+        np.array([e.body_root for e in enc], dtype=np.int64),
+        np.array([e.above_body[0] for e in enc], dtype=np.bool_),
+        np.array([e.above_body[1] for e in enc], dtype=float),
+        np.array([e.above_body[2] for e in enc], dtype=float),
+        listed(opens for opens, _ in graph.hold_layout),
+        listed((cols for _, cols in graph.hold_layout), np.int64),
+        np.array([bool(v.holds) for v in vs], dtype=np.bool_),
+    )  # fmt: skip
+    ts = graph.transitions
+    target = np.array([t.target for t in ts], dtype=np.int64)
+    transitions = (
+        np.array([(*t.source_region, *t.target_region) for t in ts], dtype=float),
+        target,
+        np.array([t.blend == "inertial" for t in ts], dtype=np.bool_),
+        np.ascontiguousarray(graph.between_verbs, dtype=np.bool_),
+    )
+    skeleton = (
+        np.asarray(graph.skeleton.parents, dtype=np.int64), np.ascontiguousarray(graph.feet_array, dtype=np.int64),
+        np.ascontiguousarray(graph.inverse_above_body, dtype=float), int(vs[0].encoding.body_root),
+    )  # fmt: skip
+    out = Tables(verbs, transitions, target, max(v.num_dofs for v in vs), skeleton)
+    _TABLES[graph] = out
+    return out
+
+
+def _constants() -> np.ndarray:
+    """The kernel's constants ``k_`` (see ``_frame_kernel``)."""
+    return np.array([
+        player._LATE, player.MIN_DURATION, player.INERTIAL_HALFLIFE, SEAM_BLEND, planting._LN2, player.REPLANT,
+        player.REPLANTED, planting.SETTLE_HALFLIFE, planting.SWING_HALFLIFE, planting.LIFT_HALFLIFE,
+    ])  # fmt: skip
+
+
+class FramePass:
+    """The compiled frame of one group of creatures on one graph: its state (a
+    :class:`~adverbs.graph.player.GraphState`) and, to plant their feet, its :class:`~adverbs.graph.player.GraphFeet`
+    (both the caller's), and the pass's working buffers.
+
+    ``threads``: how many threads the pass may use (default: numba's, every core); results are the same for any.
+    """
+
+    def __init__(self, state: GraphState, feet: GraphFeet | None = None, threads: int | None = None):
+        graph = state.graph
+        self.state, self.feet, self.graph = state, feet, graph
+        self.tables = tables(graph)
+        if feet is not None and feet.planter._compiled is None:
+            raise AdverbsError("the compiled frame plants on flat floors, slopes and height maps; this floor is a function")
+        if state.head is None:
+            state.head = np.full(state.creatures, -1, dtype=np.int64)
+        for c in range(state.creatures):
+            sync_head(state, c)
+        self._pool = Threads(threads)
+        self._caches = self._cache_lists()
+        self._pairs = 2 * len(graph.verbs)
+        self._seen = state.points.copy()  # the adverb points the caches were last brought up to date for
+        self._fresh = {(v, slot) for v in range(len(graph.verbs)) for slot in (0, 1)}
+        c, j, n_l = state.creatures, graph.skeleton.num_joints, len(graph.feet)
+        self._poses = [(np.zeros((c, j, 4)), np.zeros((c, j, 3)), np.zeros((c, 3))) for _ in range(3)]
+        self._turns = (0, 1, 2)  # which of the pose buffers is written next, shown, and shown before
+        self._planted = [(np.zeros((c, j, 4)), np.zeros((c, j, 3))) for _ in range(2)]
+        self._turn = 0  # which planted buffer is written next
+        self._box_key: tuple | None = None
+        self._boxed = None
+        self._feet_key: tuple | None = None
+        self._feet_boxed = None
+        self.held, self.roll, self.swing = np.zeros((c, n_l), dtype=bool), np.zeros((c, n_l)), np.zeros((c, n_l))
+        self.alone = np.zeros(c, dtype=bool)
+        self.events = np.zeros(c, dtype=np.int64)
+        self.g_settle = np.zeros(c)
+        self.constants = _constants()
+        if feet is not None:
+            comp = feet.planter._compiled
+            n = len(comp.tips)
+            self._inside = np.zeros((c, n), dtype=bool)
+            self._ik_out = (np.empty((c, j, 3)), np.empty((c, j, 4)), np.empty((c, n, 3)), np.empty((c, n, 3, 3)))
+            self._drop, self._residual = np.empty(c), np.empty((c, n))
+
+    def _cache_lists(self) -> tuple:
+        """Every verb's sampling caches in both slots, made now (empty until first brought up to date), as typed lists."""
+        state, graph = self.state, self.graph
+        lists = tuple(typed.List() for _ in range(5))
+        for v in range(len(graph.verbs)):
+            for slot in (0, 1):
+                s = player._sampling(state, v, slot)
+                holds = state.caches.get(((v, slot), "holds"))
+                if holds is None:
+                    holds = state.caches[(v, slot), "holds"] = np.zeros((state.creatures, 0, 3))
+                for out, a in zip(lists, (s.weights, s.keytimes, s.seam, s.goal, holds)):
+                    out.append(a)
+        return lists
+
+    def _refresh(self) -> None:
+        """Bring up to date the caches this frame reads: slot A of the verbs playing and being entered, slot B of the
+        verbs being entered and of those the queues start next (a transition may start this frame).
+
+        Nothing to do while the adverbs hold still and every cache is fresh (the usual frame); once they stop moving,
+        the caches no frame needed are brought up to date too, so later frames need not look."""
+        state = self.state
+        points = state.points
+        same = self._seen is not None and self._seen.shape == points.shape and np.array_equal(self._seen, points)
+        if same and len(self._fresh) == self._pairs:
+            return
+        if not same:
+            self._fresh.clear()
+            self._seen = points.copy()
+        for pair in self._needed():
+            if pair not in self._fresh:
+                player._sampling(state, *pair)  # a point the verb refuses raises here, as on the reference path
+                self._fresh.add(pair)
+        if same:
+            for v in range(len(self.graph.verbs)):
+                for slot in (0, 1):
+                    if (v, slot) not in self._fresh:
+                        try:
+                            player._sampling(state, v, slot)
+                        except AdverbsError:  # refused where no creature plays it: left until one does
+                            continue
+                        self._fresh.add((v, slot))
+
+    def _needed(self) -> list[tuple[int, int]]:
+        """The (verb, slot) caches this frame reads (see :meth:`_refresh`)."""
+        state, n_v = self.state, len(self.graph.verbs)
+        moving = state.active >= 0
+        a = np.bincount(state.verb, minlength=n_v) > 0
+        b = np.zeros(n_v, dtype=bool)
+        if moving.any():
+            b |= np.bincount(state.into[moving], minlength=n_v) > 0
+            a |= b
+        heads = state.head[~moving]
+        heads = heads[heads >= 0]
+        if len(heads):
+            b |= np.bincount(self.tables.target[heads], minlength=n_v) > 0
+        return [(int(v), 0) for v in np.flatnonzero(a)] + [(int(v), 1) for v in np.flatnonzero(b)]
+
+    def step(self, dt: float, plant: bool = True) -> tuple[np.ndarray, np.ndarray]:
+        """Advance every creature by ``dt`` seconds; the rotations ``(C, J, 4)`` and translations ``(C, J, 3)`` shown
+        (planted when ``plant`` and the pass has feet)."""
+        dt = float(dt)
+        if not (math.isfinite(dt) and dt > 0):
+            raise AdverbsError(f"dt must be a positive number of seconds, got {dt}")
+        state = self.state
+        state.time += dt
+        self._refresh()
+        first = state.moving is None
+        if first:
+            state.moving = np.zeros((state.creatures, 3))
+        has_held_before = state.held_before is not None
+        if not has_held_before:
+            state.held_before = np.zeros(self.held.shape, dtype=bool)
+        new, shown, before = self._turns
+        has_shown = self._take(state.shown, shown)
+        has_before = self._take(state.shown_before, before)
+        planting_on = plant and self.feet is not None
+        start = any_replanting = False
+        if planting_on:
+            p = self.feet.planter
+            p._compiled.dt[:] = dt
+            start, any_replanting = not p.started, bool(self.feet.replanting.any())
+        flags = (first, has_shown, has_before, has_held_before, start, any_replanting)
+        turns = (new, shown, before, self._turn)
+        planted = self._planted[self._turn]
+        box = self._box()
+        if planting_on:
+            finite = all(self._pool.run(kernel.frame_planted, state.creatures, (dt, flags, turns, box, self._feet())))
+        else:
+            finite = all(self._pool.run(kernel.frame, state.creatures, (dt, flags, turns, box)))
+        if planting_on:
+            self.feet.planter.started = True
+        self._events()
+        self._turns = (before, new, shown)
+        self._turn ^= 1
+        state.shown_before, state.shown = state.shown, self._poses[new]
+        state.alone = self.alone
+        if not finite:
+            raise AdverbsError("IK targets must be finite (got NaN or infinity)")
+        return planted
+
+    def _take(self, pose: tuple | None, k: int) -> bool:
+        """Whether there is a ``pose`` (a frame shown); one the pass did not make (the reference path's) is copied into
+        its buffer ``k``."""
+        if pose is None:
+            return False
+        mine = self._poses[k]
+        if pose is not mine:
+            for a, b in zip(mine, pose):
+                a[...] = b
+        return True
+
+    def _box(self):
+        """What the kernel reads and writes that stays put from frame to frame, in a one-item typed list (made again
+        only when an array was replaced: the reference path replaces some)."""
+        state = self.state
+        arrays = (
+            state.verb, state.g, state.into, state.g_into, state.active, state.beta, state.length, state.regions,
+            state.time, state.inertial, state.rebase, state.offset_rot, state.offset_rot_vel, state.offset_trans,
+            state.offset_trans_vel, state.offset_root, state.offset_since, state.offset_halflife, state.moving,
+            state.root, state.held_before,
+        )  # fmt: skip
+        key = (state.head, *arrays)
+        if self._box_key is not None and all(map(operator.is_, key, self._box_key)):
+            return self._boxed
+        t = self.tables
+        outputs = (self.held, self.roll, self.swing, self.alone, self.events, self.g_settle)
+        box = typed.List()
+        box.append((
+            t.verbs, t.transitions, t.skeleton, self._caches, arrays, state.head, tuple(self._poses), outputs,
+            self.constants, CHUNK, t.dofs, tuple(self._planted),
+        ))  # fmt: skip
+        self._box_key, self._boxed = key, box
+        return box
+
+    def _feet(self):
+        """The planter's arrays as the kernel takes them, in a one-item typed list (made again only when one was
+        replaced)."""
+        feet = self.feet
+        p = feet.planter
+        comp = p._compiled
+        times, state = comp._times(), comp._state()
+        key = (times, feet.replanting, *state)
+        if self._feet_key is not None and all(map(operator.is_, key, self._feet_key)):
+            return self._feet_boxed
+        box = typed.List()
+        box.append((
+            comp.parents, comp.no_generic, self._inside, comp.dt, times, bool(p.verb.cyclic), float(p.verb.floor),
+            comp.tips, comp.root, comp.legs, comp.constants, comp.floor, state, comp.chain, comp.ik_params,
+            self._ik_out, self._drop, self._residual, feet.replanting,
+        ))  # fmt: skip
+        self._feet_key, self._feet_boxed = key, box
+        return box
+
+    def _events(self) -> None:
+        """The discrete half of the frame: queues of the creatures whose transition started or finished."""
+        state = self.state
+        rows = np.flatnonzero(self.events)
+        for c in rows.tolist():
+            if self.events[c] == kernel.STARTED:
+                state.queue[c].pop(0)
+                sync_head(state, c)
+            else:
+                player._settle_queue(state, c, float(self.g_settle[c]))
+                player._arrived(state, c)
+        self.events[rows] = 0
+
+
+class Threads:
+    """Ranges of creatures run on several threads at once (the kernels release the GIL): ``threads`` of them, default
+    one per core (numba's count). Each range is a contiguous block of creatures; a crowd too small to share runs on
+    the calling thread."""
+
+    def __init__(self, threads: int | None = None):
+        import numba
+
+        n = numba.config.NUMBA_NUM_THREADS if threads is None else int(threads)
+        if n < 1:
+            raise AdverbsError(f"threads must be at least 1, got {threads!r}")
+        self.threads = n
+        self._executor = None
+
+    def run(self, kernel, creatures: int, args: tuple, extra: tuple = ()) -> list:
+        """``kernel(lo, hi, *args, *extra)`` over ranges covering ``creatures``; the results in order."""
+        n = max(1, min(self.threads, creatures // PER_THREAD))
+        if n == 1:
+            return [kernel(0, creatures, *args, *extra)]
+        if self._executor is None:
+            from concurrent.futures import ThreadPoolExecutor
+
+            self._executor = ThreadPoolExecutor(self.threads, thread_name_prefix="adverbs-frame")
+        bounds = [creatures * k // n for k in range(n + 1)]
+        futures = [self._executor.submit(kernel, bounds[k], bounds[k + 1], *args, *extra) for k in range(1, n)]
+        first = kernel(bounds[0], bounds[1], *args, *extra)  # this thread takes the first range
+        return [first] + [f.result() for f in futures]

@@ -1,0 +1,134 @@
+"""The frame as one compiled pass (:mod:`adverbs.runtime.frame`) against the readable reference path
+(:func:`adverbs.graph.player.step` then :func:`~adverbs.graph.player.plant`): the same frames, the same log, on the
+shipped graphs and the demo script; the same frames whatever the number of threads."""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from adverbs import AdverbsError, load_graph
+from adverbs.errors import AdverbsWarning
+from adverbs.graph.player import command, new_state, planter
+from adverbs.runtime import Simulation
+from adverbs.runtime.frame import FramePass, Threads
+from adverbs.runtime.script import load_script
+
+ROOT = Path(__file__).resolve().parent.parent
+ATOL = 1e-9  # metres and quaternion components: "equal to today's" (the two differ by rounding, ~1e-13)
+
+
+@pytest.fixture(scope="module")
+def graphs():
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", AdverbsWarning)
+        return {name: load_graph(ROOT / "graphs" / f"{name}.toml") for name in ("bandai", "cmu")}
+
+
+def _scenario(graph, compiled: bool, creatures: int = 12, seconds: float = 60.0, seed: int = 3) -> Simulation:
+    """``creatures`` creatures told, at seeded random times, to perform any verb of the graph (often mid-transition,
+    so blends are interrupted and turned back) and to change their adverbs, eased or at once."""
+    rng = np.random.default_rng(seed)
+    sim = Simulation(graph, fps=30.0, seed=seed, compiled=compiled)
+    lo, hi = graph.adverb_range(0.0)  # the examples' own span
+    crowd = [sim.add_creature(at=(2.0 * k, 0.0), heading=float(rng.uniform(0, 360))) for k in range(creatures)]
+    for c in crowd:
+        for t in np.sort(rng.uniform(0.2, seconds, int(seconds / 2.5))):
+            c.perform(str(rng.choice(graph.verb_names)), at=float(t), stay=bool(rng.random() < 0.7))
+        for t in np.sort(rng.uniform(0.2, seconds, int(seconds / 6))):
+            a = int(rng.integers(len(graph.adverb_names)))
+            value = float(rng.uniform(lo[a], hi[a]))
+            c.set_adverbs({graph.adverb_names[a]: value}, at=float(t), over=float(rng.choice([0.0, 0.5, 1.5])))
+    sim.run(seconds)
+    return sim
+
+
+def _recorded(sim: Simulation) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Every group's recorded rotations and translations ``(F, C, J, ·)`` and the planter's modes ``(F, C, L)``."""
+    out = []
+    for g in sim._groups.values():
+        rot = np.stack([r for r, _ in g.recorded])
+        trans = np.stack([t for _, t in g.recorded])
+        modes = np.stack([m for m, _ in g.held]) if g.held else np.zeros(0)
+        out.append((rot, trans, modes))
+    return out
+
+
+def _assert_same(a: Simulation, b: Simulation) -> None:
+    assert a.frames == b.frames
+    for (ra, ta, ma), (rb, tb, mb) in zip(_recorded(a), _recorded(b)):
+        np.testing.assert_allclose(rb, ra, rtol=0, atol=ATOL)
+        np.testing.assert_allclose(tb, ta, rtol=0, atol=ATOL)
+        np.testing.assert_array_equal(mb, ma)
+    assert b.log == a.log  # every command, refusal and transition, at the same times
+
+
+@pytest.mark.parametrize("name", ["bandai", "cmu"])
+def test_compiled_frames_equal_the_reference_over_a_minute_of_twelve_creatures(graphs, name):
+    graph = graphs[name]
+    reference = _scenario(graph, compiled=False)
+    compiled = _scenario(graph, compiled=True)
+    assert all(g.frame is not None for g in compiled._groups.values())  # the compiled pass ran
+    assert all(g.frame is None for g in reference._groups.values())
+    _assert_same(reference, compiled)
+    kinds = {e["command"] for e in compiled.log}
+    assert {"transition", "perform", "adverbs"} <= kinds  # the run took transitions and changed adverbs
+    transitions = [e for e in compiled.log if e["command"] == "transition"]
+    assert len({(e["from"], e["to"]) for e in transitions}) >= min(5, len(graph.transitions))  # of several kinds
+
+
+def test_compiled_frames_equal_the_reference_on_the_demo_script(graphs):
+    script = load_script(ROOT / "scripts" / "demo.toml")
+    runs = []
+    for compiled in (False, True):
+        sim = Simulation(list(graphs.values()), fps=script.fps, seed=script.seed, compiled=compiled)
+        script.apply(sim)
+        sim.run(script.seconds)
+        runs.append(sim)
+    _assert_same(*runs)
+
+
+def test_one_thread_and_two_give_the_same_frames_bit_for_bit(graphs):
+    graph = graphs["bandai"]
+    n = 80  # enough for two threads to split them (Threads runs fewer on one)
+    frames = []
+    for threads in (1, 2):
+        rng = np.random.default_rng(5)
+        state = new_state(graph, n, 7, "walk", root=np.c_[rng.uniform(0, 50, n), rng.uniform(0, 50, n), rng.uniform(0, 6, n)])
+        feet = planter(graph, n)
+        fp = FramePass(state, feet, threads=threads)
+        out = []
+        for f in range(90):
+            if f % 20 == 10:
+                for c in range(0, n, 3):
+                    command(state, c, str(rng.choice(graph.verb_names)))
+            rot, trans = fp.step(1 / 30)
+            out.append((rot.copy(), trans.copy(), feet.mode.copy()))
+        frames.append(out)
+    for (r1, t1, m1), (r2, t2, m2) in zip(*frames):
+        assert np.array_equal(r1, r2) and np.array_equal(t1, t2) and np.array_equal(m1, m2)
+
+
+def test_threads_split_every_creature_once():
+    seen = []
+    Threads(2).run(lambda lo, hi, tag: seen.append((lo, hi, tag)) or True, 1000, ("x",))
+    assert sorted(seen) == [(0, 500, "x"), (500, 1000, "x")]
+    seen.clear()
+    Threads(2).run(lambda lo, hi: seen.append((lo, hi)) or True, 5, ())  # too few to share: one range
+    assert seen == [(0, 5)]
+    with pytest.raises(AdverbsError, match="threads"):
+        Threads(0)
+
+
+def test_a_bad_step_is_refused_and_changes_nothing(graphs):
+    state = new_state(graphs["cmu"], 2)
+    fp = FramePass(state, planter(graphs["cmu"], 2))
+    fp.step(1 / 30)
+    g = state.g.copy()
+    for dt in (0.0, -1.0, float("nan"), float("inf")):
+        with pytest.raises(AdverbsError, match="dt"):
+            fp.step(dt)
+    np.testing.assert_array_equal(state.g, g)
