@@ -17,6 +17,7 @@ from conftest import BANDAI, CMU
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 from test_cli import run
+from test_spec_safety import _paths
 
 from adverbs import read_bvh, read_motion, write_glb
 from adverbs.errors import AdverbsError
@@ -455,14 +456,6 @@ HOSTILE = st.one_of(
 )
 
 
-def _places(node, prefix=()):
-    """Every (path, value) inside ``node``, objects and arrays alike."""
-    yield prefix, node
-    items = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()
-    for k, v in items:
-        yield from _places(v, prefix + (k,))
-
-
 @st.composite
 def json_damage(draw, bases) -> bytes:
     """The JSON of a real file with 1-3 fields (anywhere: nodes, skins, animations, accessors, buffer views,
@@ -473,7 +466,7 @@ def json_damage(draw, bases) -> bytes:
         top = draw(st.sampled_from(["nodes", "skins", "animations", "accessors", "bufferViews", "buffers", "asset"]))
         if top not in doc:
             continue
-        places = [p for p, _ in _places(doc[top], (top,))]
+        places = [p for p, _ in _paths(doc[top], (top,))]
         path = draw(st.sampled_from(places))
         parent = doc
         for k in path[:-1]:
