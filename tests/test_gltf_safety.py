@@ -5,45 +5,26 @@ and then damaged, by hand (each fault the fuzz report found) and by Hypothesis."
 
 from __future__ import annotations
 
-import contextlib
 import copy
 import json
-import signal
 from datetime import timedelta
 
 import numpy as np
 import pytest
 from conftest import BANDAI, CMU
+from hostile import bounded, draw_field
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 from test_cli import run
-from test_spec_safety import _paths
 
 from adverbs import read_bvh, read_motion, write_glb
 from adverbs.errors import AdverbsError
 from adverbs.io.gltf import FLOAT32_MAX, GLTFError
 
-SECONDS = 10  # a case that runs longer than this has hung (a read takes milliseconds)
 FUZZ = settings(
     derandomize=True, database=None, deadline=timedelta(seconds=5), max_examples=120,
     suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture],
 )  # fmt: skip
-
-
-@contextlib.contextmanager
-def bounded(seconds: float = SECONDS):
-    """Fail, rather than hang, when the block runs past ``seconds`` (SIGALRM: the tests run in the main thread)."""
-
-    def stop(*_):
-        raise TimeoutError(f"still running after {seconds} s: a hang")
-
-    old = signal.signal(signal.SIGALRM, stop)
-    signal.setitimer(signal.ITIMER_REAL, seconds)
-    try:
-        yield
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, old)
 
 
 def pack(doc: dict | list, blob: bytes | None, version: int = 2) -> bytes:
@@ -466,18 +447,14 @@ def json_damage(draw, bases) -> bytes:
         top = draw(st.sampled_from(["nodes", "skins", "animations", "accessors", "bufferViews", "buffers", "asset"]))
         if top not in doc:
             continue
-        places = [p for p, _ in _paths(doc[top], (top,))]
-        path = draw(st.sampled_from(places))
-        parent = doc
-        for k in path[:-1]:
-            parent = parent[k]
+        parent, key, path = draw_field(draw, st, doc, (top,))
         action = draw(st.sampled_from(["replace", "replace", "replace", "delete", "index"]))
         if action == "delete" and len(path) > 1:
-            del parent[path[-1]]
+            del parent[key]
         elif action == "index":
-            parent[path[-1]] = draw(st.sampled_from([-1, 10**6, len(doc.get("nodes", [])), len(doc["accessors"])]))
+            parent[key] = draw(st.sampled_from([-1, 10**6, len(doc.get("nodes", [])), len(doc["accessors"])]))
         else:
-            parent[path[-1]] = draw(HOSTILE)
+            parent[key] = draw(HOSTILE)
         event(f"{action} in {top}")
     return pack(doc, base.blob)
 

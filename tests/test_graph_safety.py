@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
+from hostile import bounded, draw_field
 from test_cli import run
-from test_gltf_safety import bounded
-from test_spec_safety import _paths, toml_document
+from test_spec_safety import toml_document
 
 from adverbs.errors import AdverbsError, AdverbsWarning
 from adverbs.graph import load_graph
@@ -157,15 +157,11 @@ def mutated(draw, shipped) -> str:
             if isinstance(entry, dict):
                 entry[table[1]] = draw(VALUES)
             continue
-        places = [p for p, _ in _paths(doc) if p and p[-1] != "verb"]  # the verb files stay
-        path = draw(st.sampled_from(places))
-        parent = doc
-        for k in path[:-1]:
-            parent = parent[k]
+        parent, key, path = draw_field(draw, st, doc, keep=lambda p: p[-1] != "verb")  # the verb files stay
         if action == "delete":
-            del parent[path[-1]]
+            del parent[key]
         else:
-            parent[path[-1]] = draw(VALUES)
+            parent[key] = draw(VALUES)
         event(f"{action} {path[0]}")
     return toml_document(doc)
 

@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
-from test_gltf_safety import bounded
-from test_spec_safety import _paths, toml_document
+from hostile import bounded, draw_field
+from test_spec_safety import toml_document
 
 from adverbs import Simulation, load_graph
 from adverbs.errors import AdverbsError, AdverbsWarning
@@ -136,16 +136,12 @@ def mutated(draw) -> dict:
     doc = json.loads(json.dumps(DOC))
     doc["graphs"] = []  # the test's simulation holds both graphs
     for _ in range(draw(st.integers(1, 3))):
-        places = [p for p, _ in _paths(doc) if p]
-        path = draw(st.sampled_from(places))
-        parent = doc
-        for k in path[:-1]:
-            parent = parent[k]
+        parent, key, path = draw_field(draw, st, doc)
         if draw(st.integers(0, 3)) == 0:
-            del parent[path[-1]]
+            del parent[key]
             event(f"delete {path[0]}")
         else:
-            parent[path[-1]] = draw(VALUES)
+            parent[key] = draw(VALUES)
             event(f"replace {path[0]}")
     return doc
 
