@@ -7,7 +7,9 @@ from __future__ import annotations
 
 import copy
 import json
+import re
 from datetime import timedelta
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -19,7 +21,9 @@ from test_cli import run
 
 from adverbs import read_bvh, read_motion, write_glb
 from adverbs.errors import AdverbsError
+from adverbs.io.bvh import READ_COST
 from adverbs.io.gltf import FLOAT32_MAX, GLTFError
+from adverbs.limits import LIMITS, LimitError
 
 FUZZ = settings(
     derandomize=True, database=None, deadline=timedelta(seconds=5), max_examples=120,
@@ -389,6 +393,19 @@ def test_damaged_containers_are_refused_naming_the_part(bases, tmp_path):
     text = b"[" * 200_000 + b"]" * 200_000  # JSON nested past the parser's recursion
     nested = b"glTF\x02\x00\x00\x00" + (20 + len(text)).to_bytes(4, "little") + len(text).to_bytes(4, "little") + b"JSON" + text  # fmt: skip
     refused(path, nested, "JSON", "nested too deeply")
+
+
+def test_a_file_past_the_memory_limit_or_endless_is_not_read(bases, tmp_path, monkeypatch):
+    path = tmp_path / "x.glb"
+    path.write_bytes(bases[0].data)
+    monkeypatch.setattr(LIMITS, "memory", READ_COST * len(bases[0].data) - 1)
+    with bounded(), pytest.raises(LimitError, match=rf"^{re.escape(str(path))}: the file is over .*ADVERBS_MAX_MEMORY"):
+        read_motion(path)
+    monkeypatch.setattr(LIMITS, "memory", READ_COST * (1 << 20))
+    if Path("/dev/zero").exists():  # a device has no size: read up to the limit, not for ever
+        (tmp_path / "zero.glb").symlink_to("/dev/zero")
+        with bounded(), pytest.raises(LimitError, match="the file is over 1 MiB"):
+            read_motion(tmp_path / "zero.glb")
 
 
 def test_non_finite_values_in_the_binary_chunk_are_refused(bases, tmp_path):

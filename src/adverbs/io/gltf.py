@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from pathlib import Path
 
 import numpy as np
@@ -430,13 +431,14 @@ def _read_bytes(path: Path) -> bytes:
     limit = LIMITS.memory // READ_COST
     try:
         with open(path, "rb") as f:
-            data = f.read(limit + 1)
+            size = os.fstat(f.fileno()).st_size  # a regular file's size; 0 for a pipe or a device, read up to the limit
+            data = f.read(limit + 1) if size <= limit else b""
     except OSError as e:
         raise GLTFError(path, "", f"cannot read: {e.strerror or e}") from None
-    if len(data) > limit:
+    if max(size, len(data)) > limit:
         raise LimitError(
-            f"{path}: the file is over {limit >> 20} MiB; reading it would need about {READ_COST} times that, past the "
-            f"memory limit (ADVERBS_MAX_MEMORY raises it: see adverbs.limits)"
+            f"{path}: the file is over {limit / (1 << 20):.3g} MiB; reading it would need about {READ_COST} times "
+            f"that, past the memory limit (ADVERBS_MAX_MEMORY raises it: see adverbs.limits)"
         )
     return data
 
