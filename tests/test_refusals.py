@@ -103,6 +103,26 @@ def test_limits_say_what_was_asked_and_can_be_raised(monkeypatch):
     ), r.stderr
 
 
+@pytest.mark.parametrize(
+    "var, value, shown",
+    [("ADVERBS_MAX_FRAMES", "9" * 400, "'99999999999999999999'… (400 characters)"),
+     ("ADVERBS_MAX_MEMORY", "9" * 5000 + "T", "'99999999999999999999'… (5001 characters)"),  # past int()'s 4300 digits
+     ("ADVERBS_MAX_JOINTS", str(1 << 70), "'1180591620717411303424'")],
+)  # fmt: skip
+def test_a_limit_of_hundreds_of_digits_is_refused_in_one_line(var, value, shown):
+    """400 nines were an OverflowError at ``import adverbs`` (a float's infinity made an int), on every command."""
+    env = {**os.environ, var: value}
+    code = (
+        "import sys; from adverbs.limits import LIMITS, Limits; assert LIMITS == Limits(), LIMITS; "
+        "from adverbs.apps.cli import main; sys.exit(main(['info', sys.argv[1]]))"
+    )
+    r = subprocess.run([sys.executable, "-c", code, CMU / "16_15_walk.bvh"], capture_output=True, text=True, env=env)
+    assert r.returncode == 1 and r.stdout == "", r.stderr  # the defaults kept, and the command refused
+    assert r.stderr.splitlines() == [
+        f"adverbs: error: {var}={shown}: more than 4,611,686,018,427,387,904; give a whole number up to that"
+    ]
+
+
 def test_the_api_refuses_bad_arguments_with_its_own_error(verbs):
     verb, _ = verbs["cmu_walk"]
     mean = verb.points.mean(axis=0)

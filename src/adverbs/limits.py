@@ -18,6 +18,7 @@ from __future__ import annotations
 import os
 import re
 from dataclasses import dataclass
+from fractions import Fraction
 
 from .errors import AdverbsError
 
@@ -25,6 +26,7 @@ from .errors import AdverbsError
 # poses in several forms (rotations, positions, DOFs, Euler channels, text) at 8 bytes a number.
 BYTES_PER_JOINT_FRAME = 400
 _UNITS = {"": 1, "K": 1 << 10, "M": 1 << 20, "G": 1 << 30, "T": 1 << 40}
+LARGEST = 1 << 62  # the largest value a limit may be given: any count or byte size a machine holds is far less
 
 
 class LimitError(AdverbsError):
@@ -34,8 +36,19 @@ class LimitError(AdverbsError):
 def _size(text: str, name: str) -> int:
     m = re.fullmatch(r"\s*([0-9]+(?:\.[0-9]*)?)\s*([KMGT]?)i?B?\s*", text, re.IGNORECASE)
     if m is None:
-        raise AdverbsError(f"{name}={text!r}: give a whole number, optionally with K, M, G or T (e.g. 4G)")
-    return int(float(m.group(1)) * _UNITS[m.group(2).upper()])
+        raise AdverbsError(f"{name}={_shown(text)}: give a whole number, optionally with K, M, G or T (e.g. 4G)")
+    whole, _, fraction = m.group(1).partition(".")
+    whole = whole.lstrip("0") or "0"
+    # exact, and never a float's infinity (400 nines) or a string of more digits than int() converts
+    value = Fraction(f"{whole[:20]}.{fraction[:20] or '0'}") * _UNITS[m.group(2).upper()]
+    if len(whole) > 20 or value > LARGEST:
+        raise AdverbsError(f"{name}={_shown(text)}: more than {LARGEST:,}; give a whole number up to that")
+    return int(value)
+
+
+def _shown(text: str) -> str:
+    """``repr(text)``, cut short for a message."""
+    return repr(text) if len(text) <= 40 else f"{text[:20]!r}… ({len(text)} characters)"
 
 
 @dataclass

@@ -6,9 +6,12 @@ root; a slider per adverb (its range: the examples' span and the graph's extrapo
 takes ``run`` or ``valence=0.5``, and what each creature plays and the frame rate.
 
 Everything the page sends goes through :meth:`Viewer.apply`, checked on the way in: a value out of range is
-clamped to the slider's range, one that is not a number and a verb that does not exist are refused with a
-message on the page. The simulation runs in its own thread; commands reach it through a queue, between frames,
-so a refused one never stops it.
+clamped to the slider's range; one that is not a number (a boolean, a string that does not read as one, an integer
+past a float), a verb that does not exist, a switch that is not ``true`` or ``false`` and a request of any other
+shape are refused with a message on the page. The simulation runs in its own thread; commands reach it through a
+queue of at most :data:`MAX_QUEUED` requests (past that a request is refused: the page is sending faster than the
+simulation plays), between frames, and each is carried out on its own: one that fails is refused and the rest go
+on, so no request stops the simulation. The messages the page shows are written from both threads under a lock.
 """
 
 from __future__ import annotations
@@ -39,6 +42,30 @@ LOOK_HEIGHT = 0.9  # metres: where the camera looks, above the ground under the 
 GRID_SECTION = 2.0  # metres: the ground grid's major lines (it moves by whole sections)
 UP_Z = np.array([0.0, 0.0, 1.0])  # the bone mesh's axis
 COLORS = [(230, 140, 60), (70, 140, 220), (90, 180, 110), (200, 90, 160), (150, 120, 220), (220, 200, 70)]
+MAX_QUEUED = 256  # requests waiting for the simulation: a page sends a few a second, a flood is refused past this
+MESSAGES = 6  # the last messages the page shows
+LOG_KEPT = 1000  # events of the simulation's log the viewer keeps (it records nothing; a page open for days sends more)
+
+
+def _short(value: object) -> str:
+    """``repr(value)`` cut to a line, for the page."""
+    text = repr(value)
+    return text if len(text) <= 60 else f"{text[:40]}… ({len(text)} characters)"
+
+
+def _number(value: object, name: str) -> float:
+    """A finite number from the page: a number (not a boolean) or text that reads as one."""
+    if isinstance(value, bool) or not isinstance(value, int | float | str):
+        raise AdverbsError(f"{name}: {_short(value)} is not a number")
+    try:
+        number = float(value)
+    except ValueError:
+        raise AdverbsError(f"{name}: {_short(value)} is not a number") from None
+    except OverflowError:  # an integer of hundreds of digits
+        raise AdverbsError(f"{name}: {_short(value)} is not a finite number") from None
+    if not math.isfinite(number):
+        raise AdverbsError(f"{name}: {number} is not a finite number")
+    return number
 
 
 def _cylinder(segments: int = 10) -> tuple[np.ndarray, np.ndarray]:
@@ -85,8 +112,9 @@ class Viewer:
                 self.sim.add_creature(at=(x, 0.0), heading=0.0, graph=g)
                 n += 1
         self.creatures = self.sim.creatures
-        self.commands: queue.SimpleQueue = queue.SimpleQueue()
-        self.messages: deque[str] = deque(maxlen=6)  # what the page is told: refusals, clamps, commands
+        self.commands: queue.Queue = queue.Queue(maxsize=MAX_QUEUED)
+        self._messages: deque[str] = deque(maxlen=MESSAGES)  # what the page is told: refusals, clamps, commands
+        self._messages_lock = threading.Lock()  # _say runs in the page's threads and the simulation's
         self.updates = 0  # frames sent to the page
         self.playing = True
         self.speed = 1.0
@@ -167,8 +195,15 @@ class Viewer:
         return lo, hi
 
     def _say(self, text: str) -> None:
-        self.messages.append(text)
-        self._said.content = "\n\n".join(f"`{m}`" for m in self.messages)
+        with self._messages_lock:
+            self._messages.append(text)
+            self._said.content = "\n\n".join(f"`{m}`" for m in self._messages)
+
+    @property
+    def messages(self) -> tuple[str, ...]:
+        """The last messages shown on the page, oldest first."""
+        with self._messages_lock:
+            return tuple(self._messages)
 
     # ----- what the page asks -----------------------------------------------------------------------------
     def apply(self, message: dict) -> bool:
@@ -182,28 +217,32 @@ class Viewer:
         except AdverbsError as e:
             self._say(f"refused: {e}")
             return False
-        self.commands.put(request)
+        try:
+            self.commands.put_nowait(request)
+        except queue.Full:
+            self._say(f"refused: {MAX_QUEUED} requests are waiting for the simulation; send this one again")
+            return False
         return True
 
     def _check(self, message: dict) -> tuple:
         if not isinstance(message, dict):
-            raise AdverbsError(f"not a request: {message!r}")
+            raise AdverbsError(f"not a request: {_short(message)}")
         if "text" in message:
-            text = str(message["text"]).strip()
+            text = message["text"]
+            if not isinstance(text, str):
+                raise AdverbsError(f"a command is text, got {_short(text)}")
+            text = text.strip()
             if "=" in text:
                 name, _, value = text.partition("=")
                 return self._check({"adverb": name.strip(), "value": value.strip()})
             return self._check({"perform": text})
         if "adverb" in message:
             name = message["adverb"]
-            if name not in self._sliders:
-                raise AdverbsError(f"no adverb {name!r}; there are {', '.join(self._sliders)}")
-            try:
-                value = float(message["value"])
-            except (TypeError, ValueError):
-                raise AdverbsError(f"{name}: {message['value']!r} is not a number") from None
-            if not math.isfinite(value):
-                raise AdverbsError(f"{name}: {value} is not a finite number")
+            if not isinstance(name, str) or name not in self._sliders:
+                raise AdverbsError(f"no adverb {_short(name)}; there are {', '.join(self._sliders)}")
+            if "value" not in message:
+                raise AdverbsError(f"{name}: no value")
+            value = _number(message["value"], name)
             lo, hi = self._range(name)
             kept = min(max(value, lo), hi)
             if kept != value:
@@ -212,55 +251,63 @@ class Viewer:
         if "perform" in message:
             verb = message["perform"]
             if not any(isinstance(verb, str) and verb in g.verb_names for g in self.graphs):
-                raise AdverbsError(f"no verb {verb!r}; there are {', '.join(dict.fromkeys(v for g in self.graphs for v in g.verb_names))}")
+                raise AdverbsError(f"no verb {_short(verb)}; there are {', '.join(dict.fromkeys(v for g in self.graphs for v in g.verb_names))}")  # fmt: skip
             return ("perform", verb)
-        if "playing" in message:
-            return ("playing", bool(message["playing"]))
-        if "plant" in message:
-            return ("plant", bool(message["plant"]))
+        for switch in ("playing", "plant"):
+            if switch in message:
+                if not isinstance(message[switch], bool):
+                    raise AdverbsError(f"{switch} must be true or false, got {_short(message[switch])}")
+                return (switch, message[switch])
         if "speed" in message:
-            try:
-                speed = float(message["speed"])
-            except (TypeError, ValueError):
-                raise AdverbsError(f"speed: {message['speed']!r} is not a number") from None
-            if not (math.isfinite(speed) and speed > 0):
-                raise AdverbsError(f"speed must be a positive number, got {speed}")
+            speed = _number(message["speed"], "speed")
+            if not speed > 0:
+                raise AdverbsError(f"speed must be a positive number, got {speed:g}")
             return ("speed", min(max(speed, 0.1), 3.0))
-        raise AdverbsError(f"unknown request {sorted(message)}")
+        raise AdverbsError(f"unknown request with keys {_short(list(message))}")
 
     def _targets(self):
         who = self._who.value if self._who is not None else "all"
         return [c for c in self.creatures if who in ("all", c.name)]
 
     def _drain(self, sim: Simulation) -> None:
-        """Carry out the queued requests, in the simulation's thread, between frames."""
-        while True:
+        """Carry out the queued requests, in the simulation's thread, between frames: at most :data:`MAX_QUEUED` at a
+        time (a page that keeps sending cannot hold up the frame), each on its own (one that fails is refused and
+        the simulation goes on)."""
+        for _ in range(MAX_QUEUED):
             try:
                 request = self.commands.get_nowait()
             except queue.Empty:
-                return
-            kind = request[0]
-            if kind == "adverb":
-                for c in self._targets():
-                    if request[1] in c.graph.adverb_names:
-                        try:
-                            c.set_adverbs({request[1]: request[2]}, over=0.3)
-                        except AdverbsError as e:
-                            self._say(f"{c.name}: refused: {e}")
-            elif kind == "perform":
-                for c in self._targets():
-                    if request[1] in c.graph.verb_names:
-                        try:
-                            c.perform(request[1])
-                            self._say(f"{c.name}: {request[1]} queued")
-                        except AdverbsError as e:
-                            self._say(f"{c.name}: refused: {e}")
-            elif kind == "plant":
-                sim.plant = request[1]
-            elif kind == "playing":
-                self.playing = request[1]
-            elif kind == "speed":
-                self.speed = request[1]
+                break
+            try:
+                self._carry_out(request, sim)
+            except Exception as e:  # noqa: BLE001 - whatever one request does, the simulation thread must go on
+                self._say(f"refused: {request[0]}: {type(e).__name__}: {_short(str(e))}")
+        if len(sim.log) > 2 * LOG_KEPT:  # in the thread that appends to it
+            del sim.log[:-LOG_KEPT]
+
+    def _carry_out(self, request: tuple, sim: Simulation) -> None:
+        kind = request[0]
+        if kind == "adverb":
+            for c in self._targets():
+                if request[1] in c.graph.adverb_names:
+                    try:
+                        c.set_adverbs({request[1]: request[2]}, over=0.3)
+                    except AdverbsError as e:
+                        self._say(f"{c.name}: refused: {e}")
+        elif kind == "perform":
+            for c in self._targets():
+                if request[1] in c.graph.verb_names:
+                    try:
+                        c.perform(request[1])
+                        self._say(f"{c.name}: {request[1]} queued")
+                    except AdverbsError as e:
+                        self._say(f"{c.name}: refused: {e}")
+        elif kind == "plant":
+            sim.plant = request[1]
+        elif kind == "playing":
+            self.playing = request[1]
+        elif kind == "speed":
+            self.speed = request[1]
 
     # ----- the loop -----------------------------------------------------------------------------------------
     def _show(self, sim: Simulation) -> None:

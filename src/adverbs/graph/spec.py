@@ -26,7 +26,7 @@ interruptible = true                  # a new command during it starts from the 
 A verb of one example (a bow, a wave) is a verb spec with one ``[[examples]]`` entry and no adverbs.
 Paths are relative to the graph file. Every mistake raises :class:`GraphSpecError` naming the file and
 the field: an unknown verb, a region outside ``[0, 1]`` or empty, verbs on different skeletons, a verb
-with no way out, a likelihood that is not positive.
+with no way out, a likelihood (of a transition or a verb's loop) that is not a positive number up to 1e6.
 """
 
 from __future__ import annotations
@@ -47,6 +47,7 @@ from .structure import BLENDS, Graph, Transition, GraphError, check_transition
 _TOP = {"name", "description", "start", "adverbs", "verbs", "transitions"}
 _VERB = {"name", "spec", "verb", "adverbs", "clamp", "loop_likelihood", "description"}
 _TRANSITION = {"from", "to", "from_region", "to_region", "likelihood", "blend", "interruptible", "description"}
+MAX_LIKELIHOOD = 1e6  # likelihoods are relative weights: a million times another is past any meaning
 
 
 class GraphSpecError(AdverbsError):
@@ -69,6 +70,15 @@ def _number(path: Path, x: Any, field: str) -> float:
     if isinstance(x, bool) or not isinstance(x, int | float):
         raise GraphSpecError(path, f"must be a number, got {x!r}", field)
     return float(x)
+
+
+def _likelihood(path: Path, x: Any, field: str) -> float:
+    """A likelihood, a weight among the ways out of a verb, up to :data:`MAX_LIKELIHOOD`: weights near the largest
+    float sum to infinity, and the chances to NaN (zero, negative and NaN ones are the caller's to refuse)."""
+    value = _number(path, x, field)
+    if value > MAX_LIKELIHOOD:
+        raise GraphSpecError(path, f"must be a positive number up to {MAX_LIKELIHOOD:g} (a weight among the ways out of a verb), got {value:g}", field)  # fmt: skip
+    return value
 
 
 def load_graph(path: str | Path, progress: bool = False) -> Graph:
@@ -122,7 +132,7 @@ def load_graph(path: str | Path, progress: bool = False) -> Graph:
         why = verbs[0].skeleton.structure_difference(verb.skeleton) if verbs else None
         if why is not None:
             raise GraphSpecError(path, f"verb {name!r} is on a different skeleton from verb {names[0]!r}: {why}", f"{where}.{key}")
-        loop = _number(path, entry.get("loop_likelihood", 1.0), f"{where}.loop_likelihood")
+        loop = _likelihood(path, entry.get("loop_likelihood", 1.0), f"{where}.loop_likelihood")
         if not loop > 0:
             raise GraphSpecError(path, f"must be a positive number, got {loop:g}", f"{where}.loop_likelihood")
         clamp = entry.get("clamp", False)
@@ -163,7 +173,7 @@ def load_graph(path: str | Path, progress: bool = False) -> Graph:
         interruptible = entry.get("interruptible", True)
         if not isinstance(interruptible, bool):
             raise GraphSpecError(path, f"must be true or false, got {interruptible!r}", f"{where}.interruptible")
-        t = Transition(a, b, regions[0], regions[1], _number(path, entry.get("likelihood", 1.0), f"{where}.likelihood"), blend, interruptible)
+        t = Transition(a, b, regions[0], regions[1], _likelihood(path, entry.get("likelihood", 1.0), f"{where}.likelihood"), blend, interruptible)
         try:
             check_transition(t, verbs)
         except GraphError as e:

@@ -21,8 +21,9 @@
     adverbs = { valence = 0.8, turn = 30 }
     over = 1.0                         # seconds to ease the adverbs in (default 0.5)
 
-A malformed script — not TOML, a field of the wrong type, an unknown field or creature, a cue with nothing
-to do — is refused as it loads, naming the file, the line and the field. A cue the graph cannot carry out
+A malformed script — not TOML, over 1 MiB, a field of the wrong type, an unknown field or creature, a cue with
+nothing to do, a creature placed more than 10 km from the origin (where floors end) or turned past ±360° — is
+refused as it loads, naming the file, the line and the field. A cue the graph cannot carry out
 (an unknown verb or adverb, a value out of range) is refused when its time comes, naming its line; the
 run goes on.
 """
@@ -31,16 +32,18 @@ from __future__ import annotations
 
 import math
 import re
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import AdverbsError
+from ..kinematics.floor import LEVEL_LIMIT
+from ..verb.spec import read_toml_text
 from .simulation import EASE, Simulation
 
 CREATURE_FIELDS = {"name", "graph", "at", "heading", "verb", "adverbs"}
 CUE_FIELDS = {"at", "creature", "perform", "stay", "adverbs", "over"}
 TOP_FIELDS = {"seconds", "graphs", "creatures", "cues", "fps", "seed"}
+PLACE_LIMIT = LEVEL_LIMIT  # metres from the origin a creature may start at: the floor's bound (10 km)
 
 
 class ScriptError(AdverbsError):
@@ -122,9 +125,10 @@ def _field_line(text: str, start: int, key: str) -> int:
     return start
 
 
-def _number(value, path, line, name, low=-math.inf, high=math.inf) -> float:
+def _number(value, path, line, name, low=-math.inf, high=math.inf, unit: str = "") -> float:
     if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value) or not low <= value <= high:
-        raise ScriptError(path, line, name, f"must be a number from {low:g} to {high:g}, got {value!r}")
+        unit = f" {unit}" if unit else ""
+        raise ScriptError(path, line, name, f"must be a number from {low:g} to {high:g}{unit}, got {value!r}")
     return float(value)
 
 
@@ -139,20 +143,16 @@ def _adverbs(value, path, line, name) -> dict[str, float]:
     return out
 
 
+def _toml_error(path: Path, reason: str) -> ScriptError:
+    """:func:`~adverbs.verb.spec.read_toml_text`'s refusal as a script's, on the line the TOML reader names."""
+    m = re.search(r"line (\d+)", reason)
+    return ScriptError(path, int(m.group(1)) if m else 0, "", reason)
+
+
 def load_script(path: str | Path) -> Script:
     """Read and check a script (see the module); raises :class:`ScriptError` naming the line and field."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as e:
-        raise ScriptError(path, 0, "", f"cannot read it: {e.strerror or e}") from None
-    except UnicodeDecodeError as e:
-        raise ScriptError(path, 0, "", f"not UTF-8 text ({e.reason} at byte {e.start})") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as e:
-        m = re.search(r"line (\d+)", str(e))
-        raise ScriptError(path, int(m.group(1)) if m else 0, "", f"not valid TOML: {e}") from None
+    data, text = read_toml_text(path, "script", _toml_error)  # at most 1 MiB, and TOML that cannot exhaust the reader
     for k in data:
         if k not in TOP_FIELDS:
             raise ScriptError(path, _field_line(text, 0, k), k, f"unknown field; a script has {', '.join(sorted(TOP_FIELDS))}")
@@ -196,8 +196,8 @@ def _creatures(value, text, path) -> list[CreatureSpec]:
         at = t.get("at", [0.0, 0.0])
         if not isinstance(at, list) or len(at) != 2:
             raise ScriptError(path, at_line("at"), f"{where}.at", f"must be [x, z] in metres, got {at!r}")
-        xz = tuple(_number(a, path, at_line("at"), f"{where}.at") for a in at)
-        heading = _number(t.get("heading", 0.0), path, at_line("heading"), f"{where}.heading")
+        xz = tuple(_number(a, path, at_line("at"), f"{where}.at[{k}]", -PLACE_LIMIT, PLACE_LIMIT, "metres") for k, a in enumerate(at))  # fmt: skip
+        heading = _number(t.get("heading", 0.0), path, at_line("heading"), f"{where}.heading", -360.0, 360.0, "degrees")
         for k in ("graph", "verb"):
             if k in t and not isinstance(t[k], str):
                 raise ScriptError(path, at_line(k), f"{where}.{k}", f"must be a name, got {t[k]!r}")

@@ -121,6 +121,12 @@ def read_toml(path: Path, kind: str, error: Callable[[Path, str], AdverbsError])
 
     A file over :data:`MAX_TOML_BYTES`, or with a line whose keys have more than :data:`MAX_KEY_DOTS` dots, is
     refused before it is parsed; so is TOML nested too deeply or an integer of thousands of digits."""
+    return read_toml_text(path, kind, error)[0]
+
+
+def read_toml_text(path: Path, kind: str, error: Callable[[Path, str], AdverbsError]) -> tuple[dict[str, Any], str]:
+    """:func:`read_toml`'s table and the text it was read from (lines ending in ``\\n``), for messages that name
+    a line."""
     try:
         with open(path, "rb") as f:
             data = f.read(MAX_TOML_BYTES + 1)
@@ -139,7 +145,7 @@ def read_toml(path: Path, kind: str, error: Callable[[Path, str], AdverbsError])
     if dots > MAX_KEY_DOTS:
         raise error(path, f"line {line}: keys with {dots} dots; a {kind}'s keys need at most {MAX_KEY_DOTS}")
     try:
-        return tomllib.loads(text)
+        return tomllib.loads(text), text
     except tomllib.TOMLDecodeError as e:
         raise error(path, f"not valid TOML: {e}") from None
     except RecursionError:
