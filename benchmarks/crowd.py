@@ -1,6 +1,6 @@
 """Crowd benchmark: one frame of 1 to 10,000 creatures on the shipped graphs, feet planted, through the one compiled
 pass (:class:`adverbs.runtime.frame.FramePass`) on one thread and on every thread, beside the readable reference
-path (:func:`adverbs.graph.player.step` then :func:`~adverbs.graph.player.plant`, the frame as it was).
+path (:func:`adverbs.graph.player.step` then :func:`~adverbs.graph.planted.plant`, the frame as it was).
 
     .venv/bin/python benchmarks/crowd.py            (part of make bench)
 
@@ -25,7 +25,10 @@ from timing import print_table
 
 from adverbs.errors import AdverbsWarning
 from adverbs.graph import load_graph
-from adverbs.graph.player import command, new_state, plant, planter, step
+from adverbs.graph.planted import plant, planter
+from adverbs.graph.player import step
+from adverbs.graph.queue import command
+from adverbs.graph.state import new_state
 from adverbs.runtime.frame import FramePass
 
 GRAPHS = Path(__file__).resolve().parent.parent / "graphs"

@@ -18,14 +18,9 @@ from timing import median_seconds, print_table
 from adverbs import ik
 from adverbs.apps.evaluate import obedience_points
 from adverbs.kinematics.floor import SlopeFloor, tilt
-from adverbs.verb.planting import (
-    FootPlanter,
-    effector_joints,
-    foot_drift,
-    frame_generic,
-    measure_feet,
-    plant_feet_many,
-)
+from adverbs.feet.measures import foot_drift, measure_feet
+from adverbs.feet.offline import plant_feet_many
+from adverbs.feet.planter import FootPlanter, effector_joints, frame_generic
 from adverbs.verb.fit import build_from_spec
 
 SPECS = Path(__file__).resolve().parent.parent / "specs"

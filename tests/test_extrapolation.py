@@ -11,7 +11,7 @@ from test_cli import run
 
 from adverbs import AdverbsError
 from adverbs.errors import AdverbsWarning
-from adverbs.verb.planting import plant_feet
+from adverbs.feet.offline import plant_feet
 from adverbs.verb.sampling import LONGEST_CYCLE
 from adverbs.verb.synthesis import WARN_BEYOND
 

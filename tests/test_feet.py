@@ -2,7 +2,7 @@
 
 Every shipped walk and run is synthesized for three cycles at every example, halfway between each and
 its nearest neighbour and 25% past the examples (:func:`adverbs.apps.evaluate.obedience_points`), planted
-on flat ground and on a 10° slope, and measured by :func:`adverbs.verb.planting.measure_feet` from the
+on flat ground and on a 10° slope, and measured by :func:`adverbs.feet.measures.measure_feet` from the
 output's joints with forward kinematics. Where a bound is knowingly exceeded, ``KNOWN`` says so with
 what was measured and why; the test then holds that measurement, so it can only get better.
 """
@@ -16,7 +16,9 @@ import pytest
 
 from adverbs.apps.evaluate import obedience_points
 from adverbs.kinematics.floor import SlopeFloor
-from adverbs.verb.planting import FootPlanter, frame_generic, measure_feet, plant_feet, plant_feet_many
+from adverbs.feet.measures import measure_feet
+from adverbs.feet.offline import plant_feet, plant_feet_many
+from adverbs.feet.planter import FootPlanter, frame_generic
 
 WALKS = ["cmu_walk", "bandai_styled_walk"]
 RUNS = ["cmu_run", "bandai_run"]

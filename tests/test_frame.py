@@ -1,5 +1,5 @@
 """The frame as one compiled pass (:mod:`adverbs.runtime.frame`) against the readable reference path
-(:func:`adverbs.graph.player.step` then :func:`~adverbs.graph.player.plant`): the same frames, the same log, on the
+(:func:`adverbs.graph.player.step` then :func:`~adverbs.graph.planted.plant`): the same frames, the same log, on the
 shipped graphs and the demo script; the same frames whatever the number of threads."""
 
 from __future__ import annotations
@@ -12,7 +12,9 @@ import pytest
 
 from adverbs import AdverbsError, load_graph
 from adverbs.errors import AdverbsWarning
-from adverbs.graph.player import command, new_state, planter
+from adverbs.graph.planted import planter
+from adverbs.graph.queue import command
+from adverbs.graph.state import new_state
 from adverbs.runtime import Simulation
 from adverbs.runtime.frame import FramePass, Threads
 from adverbs.runtime.script import load_script

@@ -27,13 +27,15 @@ from adverbs.graph import (
     step,
 )
 from adverbs.graph._time_kernel import hold_rows
-from adverbs.graph.player import _velocity, clock_of, generic_of
+from adverbs.graph.clocks import clock_of, generic_of
+from adverbs.graph.player import _velocity
 from adverbs.interp import timewarp
 from adverbs.kinematics import quat
 from adverbs.motion.clip import Clip
 from adverbs.motion._pose_kernel import blend_poses
 from adverbs.motion.encoding import advance_root
-from adverbs.verb.planting import BALL, effector_joints, hold_modes, measure_feet, planted_drift, swing_lifts
+from adverbs.feet.measures import measure_feet, planted_drift
+from adverbs.feet.planter import BALL, effector_joints, hold_modes, swing_lifts
 from adverbs.verb.store import save_verb
 
 GRAPHS = Path(__file__).resolve().parent.parent / "graphs"

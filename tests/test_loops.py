@@ -18,9 +18,11 @@ from test_fits import _largest_joint_speed, _root_path_rates
 from adverbs import read_bvh
 from adverbs.graph import Graph
 from adverbs.graph.performance import perform, repeat
-from adverbs.graph.player import first_frame, new_state, step
+from adverbs.graph.player import first_frame, step
+from adverbs.graph.state import new_state
 from adverbs.graph.structure import LOOP, loop_region
-from adverbs.verb.planting import effector_joints, measure_feet
+from adverbs.feet.measures import measure_feet
+from adverbs.feet.planter import effector_joints
 
 CYCLIC = [n for n in VERB_SPECS if n != "bandai_reach"] + RUN_SPECS
 

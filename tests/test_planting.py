@@ -10,7 +10,9 @@ from adverbs import AdverbsError, ik
 from adverbs.verb.constraints import Constraint
 from adverbs.apps.evaluate import obedience_points
 from adverbs.kinematics.floor import FlatFloor, FunctionFloor, HeightMapFloor, SlopeFloor, parse_floor
-from adverbs.verb.planting import effector_joints, foot_drift, measure_feet, plant_feet, planted_drift
+from adverbs.feet.measures import foot_drift, measure_feet, planted_drift
+from adverbs.feet.offline import plant_feet
+from adverbs.feet.planter import effector_joints
 
 WALKS = ["cmu_walk", "bandai_styled_walk"]
 
@@ -206,7 +208,7 @@ def test_toe_offs_as_keytimes_close_the_constraints(tmp_path):
 
 
 def test_many_creatures_at_once_equal_one_at_a_time(verbs):
-    from adverbs.verb.planting import plant_feet_many
+    from adverbs.feet.offline import plant_feet_many
 
     verb, _ = verbs["cmu_walk"]
     rng = np.random.default_rng(2)

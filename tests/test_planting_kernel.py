@@ -1,4 +1,4 @@
-"""The compiled foot planter (``verb/_planting_kernel.py``) against its NumPy reference, frame by frame.
+"""The compiled foot planter (``feet/_planting_kernel.py``) against its NumPy reference, frame by frame.
 
 A walk (lands on the heel) and a run (lands on the ball) of the shipped specs, each creature at its own
 adverb point (at the examples, between them and 25% past them), planted over two cycles on a flat floor, a
@@ -19,7 +19,7 @@ from adverbs.apps.evaluate import obedience_points
 from adverbs.kinematics import quat
 from adverbs.kinematics.fk import forward_kinematics
 from adverbs.kinematics.floor import FlatFloor, HeightMapFloor, SlopeFloor
-from adverbs.verb.planting import BALL, FREE, HEEL, FootPlanter, frame_generic, hold_modes, swing_lifts
+from adverbs.feet.planter import BALL, FREE, HEEL, FootPlanter, frame_generic, hold_modes, swing_lifts
 
 TOL = 1e-9
 _x = np.arange(-40.0, 40.01, 0.5)

@@ -19,7 +19,8 @@ from conftest import BANDAI, SPECS
 from adverbs.apps.evaluate import measure_point, obedience_points
 from adverbs.verb.examples import examples_from_spec
 from adverbs.verb.measures import measure_all
-from adverbs.verb.planting import foot_drift, plant_feet
+from adverbs.feet.measures import foot_drift
+from adverbs.feet.offline import plant_feet
 from adverbs.verb.spec import load_spec
 
 GOAL = ("hand_x", "hand_y", "hand_z")

@@ -21,7 +21,7 @@ from adverbs import AdverbsError, read_bvh
 from adverbs.errors import AdverbsWarning
 from adverbs.kinematics.floor import parse_floor
 from adverbs.limits import LIMITS, LimitError, check_frames
-from adverbs.verb.planting import plant_feet
+from adverbs.feet.offline import plant_feet
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -255,3 +255,28 @@ def test_states_and_tables_guard_themselves(verbs):
         walk.coefficients[0, 0, 0] = 1.0
     with pytest.raises(AttributeError):
         walk.points = walk.points * 2
+
+
+@pytest.mark.parametrize("name", VERB_SPECS)
+def test_one_pose_in_one_call_is_the_general_path_bit_for_bit(verbs, name):
+    """``pose`` of a verb without a goal chain checks, caches and samples a point in one compiled call
+    (``_sampling_kernel.pose_one``); the general path (``SamplingState.update``, then the kernel) gives the same bits,
+    and a point it refuses is refused the same way, the state left as it was."""
+    verb, _ = verbs[name]
+    rng = np.random.default_rng(9)
+    points = np.concatenate([_spread(verb, rng, 20), verb.points[:3]])
+    clocks = rng.uniform(-0.5, 4 * verb.duration(points[0]), len(points))
+    fast, general = verb.state(), verb.state()
+    for p, c in zip(points, clocks):
+        for again in (False, True):  # a new point, then the same point cached
+            one = verb.pose(p, c + again * 0.1, fast)
+            ref = sampling._sample_state(verb, p[None], np.array([c + again * 0.1]), general)[0][0]
+            np.testing.assert_array_equal(one, ref)
+            for field in ("points", "cached", "weights", "keytimes", "seam", "cycle"):
+                np.testing.assert_array_equal(getattr(fast, field), getattr(general, field))
+    if verb.goal is None:
+        kept = fast.weights.copy()
+        far = verb.points.mean(axis=0) + 1e9 * np.ptp(verb.points, axis=0)
+        with pytest.raises(AdverbsError, match="degenerates"):
+            verb.pose(far, 0.1, fast)
+        np.testing.assert_array_equal(fast.weights, kept)

@@ -184,7 +184,7 @@ def test_render_draws_the_ground_the_feet_were_planted_on(verbs, tmp_path):
     and the floor grid are right under the feet. Drawn over a level floor (what render did before it took a
     floor), the dots and grid stay at height 0 while the walker climbs out of their sight."""
     from adverbs.kinematics.floor import SlopeFloor
-    from adverbs.verb.planting import plant_feet
+    from adverbs.feet.offline import plant_feet
 
     verb, _ = verbs["cmu_walk"]
     p = verb.points.mean(axis=0)
@@ -237,7 +237,7 @@ def test_run_interrupted_keeps_what_it_recorded_and_refuses_options_it_would_ign
 def test_the_planter_s_holds_are_recorded_and_measure_the_feet(scene):
     """Creature.holds: the phases the planter held each foot, frame for frame with the clip; over them the held toes
     stay put and never go below the floor (what the demo's report prints)."""
-    from adverbs.verb.planting import measure_feet
+    from adverbs.feet.measures import measure_feet
 
     sim, _ = scene
     for c in sim.creatures:

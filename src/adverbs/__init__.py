@@ -9,9 +9,10 @@ The package is cut in layers, each a subpackage that imports only from the ones 
 | :mod:`adverbs.kinematics` | quaternions, skeletons, forward kinematics, two-bone IK, floors |
 | :mod:`adverbs.motion` | clips, heading, DOF encodings, foot contacts, cutting examples |
 | :mod:`adverbs.io` | BVH read and write |
-| :mod:`adverbs.verb` | a verb's tables, building, sampling, synthesis, files, specs, measures, planted feet |
+| :mod:`adverbs.verb` | a verb's tables, building, sampling, synthesis, files, specs, measures, constraints |
+| :mod:`adverbs.feet` | planted feet: the foot planter (state per creature, its compiled loop), offline planting, measures |
 | :mod:`adverbs.graph` | verb graphs: specs, transitions, the planner, creatures stepping through them |
-| :mod:`adverbs.runtime` | the event loop and clocks, simulations of creatures on graphs, timed scripts |
+| :mod:`adverbs.runtime` | the event loop and clocks, the frame as one compiled pass, simulations, timed scripts |
 | :mod:`adverbs.apps` | the command line and evaluation |
 
 What most users need is re-exported here, so ``import adverbs`` is enough.
@@ -19,6 +20,7 @@ What most users need is re-exported here, so ``import adverbs`` is enough.
 
 from . import compiled  # noqa: F401  (first: it refreshes numba's cache of the kernels before any is imported)
 from .errors import AdverbsError, BVHError
+from .feet import FootPlanter, foot_drift, measure_feet, plant_feet, plant_feet_many
 from .interp import AdverbInterpolator
 from .graph import CommandRefused, Cue, Graph, GraphSpecError, load_graph, perform
 from .io import format_bvh, parse_bvh, portable, read_bvh, read_glb, read_motion, write_bvh, write_glb, write_motion
@@ -29,19 +31,14 @@ from .verb import (
     Adverb,
     Constraint,
     Example,
-    FootPlanter,
     SamplingState,
     SpecError,
     Verb,
     advance,
     build_from_spec,
     build_verb,
-    foot_drift,
     load_spec,
     load_verb,
-    measure_feet,
-    plant_feet,
-    plant_feet_many,
     sample,
     save_verb,
     synthesize,

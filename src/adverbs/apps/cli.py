@@ -42,7 +42,8 @@ from ..limits import check_environment
 from ..motion.clip import Clip
 from ..motion.contacts import find_contacts
 from ..verb.fit import verb_from
-from ..verb.planting import foot_drift, measure_feet, plant_feet
+from ..feet.measures import foot_drift, measure_feet
+from ..feet.offline import plant_feet
 from ..verb.store import load_verb, save_verb
 from ..verb.synthesis import plan
 from ..verb.tables import Verb

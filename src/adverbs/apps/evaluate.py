@@ -23,7 +23,7 @@ predicted at their measured adverb points; the same pose and adverb errors, medi
 The other way round (even takes build) and leave-one-take-out are there to show how much the split matters.
 
 Planted feet: at the same points, two cycles synthesized with and without the constraints enforced;
-the drift of each contact phase (see :func:`adverbs.verb.planting.planted_drift`).
+the drift of each contact phase (see :func:`adverbs.feet.measures.planted_drift`).
 
 Obedience: our verb synthesized at every example, halfway between each example and its nearest
 neighbour, and 25% past each example (``c + 1.25 (p_i − c)``, ``c`` the examples' centre), each
@@ -46,7 +46,8 @@ from ..interp.rbf import AdverbInterpolator
 from ..kinematics.fk import forward_kinematics
 from ..verb.fit import build_from_spec
 from ..verb.measures import measure_all
-from ..verb.planting import foot_drift, measure_feet, plant_feet
+from ..feet.measures import foot_drift, measure_feet
+from ..feet.offline import plant_feet
 from ..verb.tables import Verb
 
 METHODS = ("nearest", "linear", "idw", "scipy-rbf", "ours", "ours-auto")

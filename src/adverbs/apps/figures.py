@@ -129,7 +129,7 @@ def figure(
 
 def _feet(verb: Verb, point: np.ndarray, plt):
     """Toe paths from above and toe heights over time, planted and not (see the module)."""
-    from ..verb.planting import plant_feet
+    from ..feet.offline import plant_feet
 
     if not verb.constraints:
         raise AdverbsError(f"verb {verb.name!r} has no constraints: no feet to plant")

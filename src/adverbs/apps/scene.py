@@ -280,8 +280,8 @@ def demo(out: Path, script: Path = DEMO_SCRIPT) -> dict[str, Path]:
 
 def _feet(sim: Simulation, clips: list) -> dict[str, str]:
     """For each creature, what its feet did, measured on its recording over the phases the planter held them
-    (:func:`~adverbs.verb.planting.measure_feet`: held toes' drift, the lowest toe against the floor, ...)."""
-    from ..verb.planting import measure_feet
+    (:func:`~adverbs.feet.measures.measure_feet`: held toes' drift, the lowest toe against the floor, ...)."""
+    from ..feet.measures import measure_feet
 
     out = {}
     for c, clip in zip(sim.creatures, clips):

@@ -32,7 +32,7 @@ from ..graph.structure import REACH, Graph
 from ..kinematics import quat
 from ..kinematics.fk import forward_kinematics
 from ..runtime.simulation import Simulation
-from ..verb.planting import FREE
+from ..feet.planter import FREE
 
 TRAIL_SECONDS = 4.0
 BONE_RADIUS = 0.025  # metres

@@ -16,7 +16,7 @@ from numba import njit
 
 from ..kinematics._fk_kernel import forward
 from ..motion._pose_kernel import _exp, _mul
-from ..verb._planting_scalars import spring
+from ..feet._planting_scalars import spring
 
 
 @njit(cache=True)

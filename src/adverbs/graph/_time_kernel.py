@@ -1,4 +1,4 @@
-"""The compiled time warps behind :func:`adverbs.graph.player.clock_of` and :func:`~adverbs.graph.player.generic_of`.
+"""The compiled time warps behind :func:`adverbs.graph.clocks.clock_of` and :func:`~adverbs.graph.clocks.generic_of`.
 
 Row by row, the arithmetic of :func:`adverbs.interp.timewarp.clock_time` and
 :func:`~adverbs.interp.timewarp.generic_time` (piecewise linear between keytimes, clipped to the first and last
@@ -13,7 +13,7 @@ import math
 
 from numba import njit
 
-from ..verb._planting_scalars import hold_mode
+from ..feet._planting_scalars import hold_mode
 
 
 @njit(cache=True)
@@ -69,7 +69,7 @@ def hold_rows(g, rows, opens, times, cols, cyclic, held, roll, swing):  # pragma
     far its foot has rolled off and how much of the least swing lift it has, written to columns ``cols (L,)`` of
     ``held (C, F)``, ``roll (C, F)`` and ``swing (C, F)``.
 
-    :func:`adverbs.verb.planting.hold_modes` and :func:`~adverbs.verb.planting.swing_lifts` row by row
+    :func:`adverbs.feet.planter.hold_modes` and :func:`~adverbs.feet.planter.swing_lifts` row by row
     (``opens (L,)``, ``times (C, L, 3)``), on the cycle ``g`` falls in (cyclic) or clipped to the motion.
     """
     for i in range(rows.shape[0]):

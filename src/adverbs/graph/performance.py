@@ -17,9 +17,12 @@ from ..errors import AdverbsError
 from ..limits import check_frames
 from ..kinematics.floor import Floor
 from ..motion.clip import Clip
-from ..verb.planting import PlantingReport, report_of_modes
+from ..feet.offline import PlantingReport, report_of_modes
 from ..verb.synthesis import MAX_FPS, plan
-from .player import GraphState, command, first_frame, new_state, plant, planter, step
+from .planted import plant, planter
+from .player import first_frame, step
+from .queue import command
+from .state import GraphState, new_state
 from .structure import CommandRefused, Graph
 
 if TYPE_CHECKING:

@@ -1,7 +1,7 @@
 """A verb graph: verbs, the adverbs they share by name, and transitions between them (§5).
 
 :class:`Graph` is immutable data that any number of creatures read at once (their progress through it
-lives in :class:`~adverbs.graph.player.GraphState`). A :class:`Transition` from verb A to verb B is a
+lives in :class:`~adverbs.graph.state.GraphState`). A :class:`Transition` from verb A to verb B is a
 correspondence region in each verb's generic time, ``[t_s^A, t_e^A]`` and ``[t_s^B, t_e^B]``, and a
 likelihood, used to draw among the ways out of a verb when nothing was asked for. Every cyclic verb
 has a transition into itself (the graph's own, or one the graph adds, :func:`loop_region` in both: the last
@@ -23,7 +23,7 @@ from functools import cached_property
 import numpy as np
 
 from ..errors import AdverbsError
-from ..verb.planting import effector_joints
+from ..feet.planter import effector_joints
 from ..verb.tables import Verb
 
 BLENDS = ("cosine", "inertial")

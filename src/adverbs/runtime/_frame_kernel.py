@@ -1,11 +1,11 @@
 """The one compiled pass of a frame: every creature of a group, from its clocks to its planted pose.
 
-:func:`frame` is :func:`adverbs.graph.player.step` followed by :func:`adverbs.graph.player.plant` (the readable
+:func:`frame` is :func:`adverbs.graph.player.step` followed by :func:`adverbs.graph.planted.plant` (the readable
 path, which stays the reference) for every creature at once, with no Python per creature: clocks (a verb alone
 by its own, a transition by ``β``; a transition starting or finishing where the region says) → the verbs
 sampled (one, or two in a blend) → root velocities blended → root advanced → poses decoded and blended → the
 decaying offsets of inertial blends and interruptions → hold phases → the body carried by the held feet → the
-feet planted (the planter's own kernel, :func:`adverbs.verb._planting_kernel.step`) → feet to re-place.
+feet planted (the planter's own kernel, :func:`adverbs.feet._planting_kernel.step`) → feet to re-place.
 
 Each piece calls the same compiled arithmetic the reference path calls (the sampling query, the decode, the
 slerp blend, the spring, FK), creature by creature, so a frame equals the reference's to rounding;
@@ -20,15 +20,19 @@ finished (2) a transition this frame, for Python to settle their queues.
 
 Arguments come in tuples (``frame.FramePass`` lays them out once):
 
-* ``verbs`` per verb (typed lists where shapes differ): ``segments`` ``(NumCP, E, D)``, ``generic`` ``(N,)``,
-  ``cyclic (V,)``, ``goal_columns``, ``goal_window (V, 3)``, the log-quaternion decode (``rotated``, ``reference``,
-  ``translated``, ``base``, ``body (V,)``, ``has_parent (V,)``, ``parent_inv (V, 4)``, ``parent_pos (V, 3)``) and
-  the holds (``opens``, ``cols`` in the graph's feet, ``has_holds (V,)``).
+* ``verbs``, per verb, where shapes differ a flat array and its offsets (verb ``v``'s part is
+  ``flat[off[v]:off[v + 1]]``): ``segments`` ``(NumCP, E, D)`` (flat, offsets, shapes ``(V, 3)``), ``generic``
+  ``(N,)``, ``cyclic (V,)``, ``goal_columns``, ``goal_window (V, 3)``, the log-quaternion decode (``rotated``,
+  ``reference (V, J, 4)``, ``translated``, ``base (V, J, 3)``, ``body (V,)``, ``has_parent (V,)``, ``parent_inv
+  (V, 4)``, ``parent_pos (V, 3)``) and the holds (``opens``, ``cols`` in the graph's feet, ``has_holds (V,)``).
 * ``transitions``: ``regions (T, 4)`` (source start and end, target start and end), ``target (T,)``,
   ``inertial (T,)``, ``between (T,)`` (from one verb to another).
-* ``caches`` per verb and slot (index ``2 v + slot``; slot 0 is the verb playing, 1 the one being entered):
-  each creature's ``weights``, ``keytimes``, ``seam``, ``goal`` and hold times.
-* ``state``: :class:`~adverbs.graph.player.GraphState`'s arrays, updated in place.
+* ``caches = (tables, offsets)``: each creature's ``weights``, ``keytimes``, ``seam``, ``goal`` and hold times of
+  every verb, one ``(C, Σ)`` table per kind and slot (slot 0 the verb playing, 1 the one being entered: ``tables =
+  (W0, W1, K0, K1, S0, S1, G0, G1, H0, H1)``), verb ``v``'s columns given by ``offsets`` (one array per kind). The verbs'
+  :class:`~adverbs.verb.sampling.SamplingState` rows are views of these tables, so the reference path and the
+  pass read and write the same numbers.
+* ``state``: :class:`~adverbs.graph.state.GraphState`'s arrays, updated in place.
 """
 
 from __future__ import annotations
@@ -41,8 +45,8 @@ from numba import njit
 from ..graph._blend_kernel import decay_row, keep_feet_row
 from ..graph._time_kernel import _clock, _generic
 from ..motion._pose_kernel import _log, _mul, advance_root_row, blend_row, decode_row, root_velocity_row
-from ..verb._planting_kernel import step as plant_step
-from ..verb._planting_scalars import hold_mode, spring
+from ..feet._planting_kernel import step as plant_step
+from ..feet._planting_scalars import hold_mode, spring
 from ..verb._sampling_kernel import GENERIC, VELOCITIES, goal_weight, phase, query_into
 
 STARTED, FINISHED = 1, 2  # events: a transition started, or finished, this frame
@@ -51,30 +55,60 @@ FREE, BALL = 0, 2  # planting.FREE, planting.BALL
 _LATE, _MIN_DURATION, _INERTIAL, _SEAM, _LN2, _REPLANT, _REPLANTED, _SETTLE, _SWING, _LIFT = range(10)
 
 
+# ----- the tables, packed: per verb, a slice of a flat array (see frame.tables and FramePass) ------------------
+
+
 @njit(cache=True, inline="always")
-def _keys(caches, v, slot, c):
+def _part(flat, off, v):  # pragma: no cover - compiled
+    """Verb ``v``'s part of a flat table: ``flat[off[v]:off[v + 1]]``."""
+    return flat[off[v] : off[v + 1]]
+
+
+@njit(cache=True, inline="always")
+def _segments(verbs, v):  # pragma: no cover - compiled
+    """Verb ``v``'s control points / 6, ``(NumCP, E, D)``."""
+    shape = verbs[2]
+    return _part(verbs[0], verbs[1], v).reshape((shape[v, 0], shape[v, 1], shape[v, 2]))
+
+
+@njit(cache=True, inline="always")
+def _generic_keys(verbs, v):  # pragma: no cover - compiled
+    """Verb ``v``'s generic keytimes ``(N,)``."""
+    return _part(verbs[3], verbs[4], v)
+
+
+@njit(cache=True, inline="always")
+def _columns(caches, slot, v, which):  # pragma: no cover - compiled
+    """Verb ``v``'s columns ``(C, ·)`` of cache ``which`` (0 weights, 1 keytimes, 2 seam, 3 goal, 4 hold times) in
+    ``slot``."""
+    off = caches[1][which]
+    return caches[0][2 * which + slot][:, off[v] : off[v + 1]]
+
+
+@njit(cache=True, inline="always")
+def _keys(caches, v, slot, c):  # pragma: no cover - compiled
     """Creature ``c``'s keytimes ``(N,)`` of verb ``v`` in ``slot``."""
-    return caches[1][2 * v + slot][c]
+    return _columns(caches, slot, v, 1)[c]
 
 
 @njit(cache=True)
 def _clock_of(g, v, slot, c, verbs, caches):  # pragma: no cover - compiled
-    """``player._clock``: clock time of generic time ``g`` of creature ``c`` in verb ``v`` (slot)."""
-    generic = verbs[1][v]
+    """``clocks._clock``: clock time of generic time ``g`` of creature ``c`` in verb ``v`` (slot)."""
+    generic = _generic_keys(verbs, v)
     return _clock(g, _keys(caches, v, slot, c), generic, generic.shape[0])
 
 
 @njit(cache=True)
 def _generic_of(clock, v, slot, c, verbs, caches):  # pragma: no cover - compiled
-    """``player._generic``: the inverse of :func:`_clock_of`."""
-    generic = verbs[1][v]
+    """``clocks._generic``: the inverse of :func:`_clock_of`."""
+    generic = _generic_keys(verbs, v)
     return _generic(clock, _keys(caches, v, slot, c), generic, generic.shape[0])
 
 
 @njit(cache=True)
 def _later(g, seconds, v, slot, c, verbs, caches):  # pragma: no cover - compiled
-    """``player._later``: the generic time ``seconds`` of the creature's clock after ``g``."""
-    generic = verbs[1][v]
+    """``clocks._later``: the generic time ``seconds`` of the creature's clock after ``g``."""
+    generic = _generic_keys(verbs, v)
     keys = _keys(caches, v, slot, c)
     n = generic.shape[0]
     return _generic(_clock(g, keys, generic, n) + seconds, keys, generic, n)
@@ -82,7 +116,7 @@ def _later(g, seconds, v, slot, c, verbs, caches):  # pragma: no cover - compile
 
 @njit(cache=True)
 def _region_clocks(c, verbs, caches, state):  # pragma: no cover - compiled
-    """``player._region_clocks``: clock times of the start and end of A's region and of B's."""
+    """``clocks._region_clocks``: clock times of the start and end of A's region and of B's."""
     verb, into, regions = state[0], state[2], state[7]
     a, b = verb[c], into[c]
     return (
@@ -93,7 +127,7 @@ def _region_clocks(c, verbs, caches, state):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def _rates(c, verbs, caches, state):  # pragma: no cover - compiled
-    """``player._rates``: how fast A's and B's clocks run in creature ``c``'s transition."""
+    """``clocks._rates``: how fast A's and B's clocks run in creature ``c``'s transition."""
     ca0, ca1, cb0, cb1 = _region_clocks(c, verbs, caches, state)
     length = state[6][c]
     rate_b = 1.0 if state[9][c] else (cb1 - cb0) / length
@@ -102,7 +136,7 @@ def _rates(c, verbs, caches, state):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def _place(c, verbs, caches, state):  # pragma: no cover - compiled
-    """``player._place``: A and B of creature ``c`` where ``β`` says, each clock through its region."""
+    """``clocks._place``: A and B of creature ``c`` where ``β`` says, each clock through its region."""
     verb, g, into, g_into, beta, length, inertial = state[0], state[1], state[2], state[3], state[5], state[6], state[9]
     ca0, ca1, cb0, cb1 = _region_clocks(c, verbs, caches, state)
     b = beta[c]
@@ -113,7 +147,7 @@ def _place(c, verbs, caches, state):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def _start(c, late, k, verbs, transitions, caches, state, k_):  # pragma: no cover - compiled
-    """``player._start``: creature ``c`` starts transition ``k``; ``late``: seconds of this frame left after its region
+    """``queue._start``: creature ``c`` starts transition ``k``; ``late``: seconds of this frame left after its region
     began. (Python pops it off the queue afterwards.)"""
     verb, g, into, g_into, active, beta, length, regions = state[:8]
     inertial, rebase, halflife = state[9], state[10], state[17]
@@ -127,7 +161,7 @@ def _start(c, late, k, verbs, transitions, caches, state, k_):  # pragma: no cov
             sa = gc
         else:
             sa = ea = gc
-    if verbs[2][target] and eb >= 1.0:  # B plays the end of its previous cycle
+    if verbs[5][target] and eb >= 1.0:  # B plays the end of its previous cycle
         sb, eb = sb - 1.0, eb - 1.0
     length_a = _clock_of(ea, source, 0, c, verbs, caches) - _clock_of(sa, source, 0, c, verbs, caches)
     length_b = _clock_of(eb, target, 1, c, verbs, caches) - _clock_of(sb, target, 1, c, verbs, caches)
@@ -145,12 +179,12 @@ def _start(c, late, k, verbs, transitions, caches, state, k_):  # pragma: no cov
 
 @njit(cache=True)
 def _finish(c, verbs, state):  # pragma: no cover - compiled
-    """``player._finish`` without the queue (Python settles it): B plays on alone."""
+    """``queue._finish`` without the queue (Python settles it): B plays on alone."""
     verb, g, into, g_into, active = state[0], state[1], state[2], state[3], state[4]
     verb[c], g[c] = into[c], g_into[c]
     if g[c] < 0.0 and abs(g[c]) < 1e-9:
         g[c] = 0.0
-    if not verbs[2][verb[c]]:
+    if not verbs[5][verb[c]]:
         g[c] = min(g[c], 1.0)
     elif g[c] >= 1.0:  # a blend turned back ran a cycle past its end: on in the next
         g[c] -= math.floor(g[c])
@@ -170,7 +204,7 @@ def _advance(c, dt, verbs, transitions, caches, state, head, events, g_settle, k
         k = head[c]  # the queue's first transition (Python keeps it: never none for a verb playing alone)
         nxt = transitions[0][k, 0] if k >= 0 else np.inf
         begins = g_new >= nxt - k_[_LATE]
-        if not verbs[2][v]:
+        if not verbs[5][v]:
             g_new = min(g_new, 1.0)
         if begins:
             clock = _clock_of(g[c], v, 0, c, verbs, caches) + dt
@@ -197,19 +231,19 @@ def _advance(c, dt, verbs, transitions, caches, state, head, events, g_settle, k
 def _dofs(out, v, slot, c, g, verbs, caches, blend):  # pragma: no cover - compiled
     """``player._dofs`` of one creature: verb ``v``'s DOFs at generic time ``g`` (another cycle's shifted by the seam)
     into ``out[:D]``."""
-    segments, generic, goal_window = verbs[0][v], verbs[1][v], verbs[4][v]
-    k = 2 * v + slot
-    seam = caches[2][k][c]
+    segments, generic, goal_window = _segments(verbs, v), _generic_keys(verbs, v), verbs[8][v]
+    seam = _columns(caches, slot, v, 2)[c]
     nd = segments.shape[2]
     lap = math.floor(g)
     local = min(max(g - lap, 0.0), 1.0)
     # Generic times: no cycle, so no seam fade (its window is not read).
-    seg, fade, vfade, _, t = phase(caches[1][k], generic, c, local, GENERIC, 0.0, segments.shape[0], blend)
-    columns = verbs[3][v]
+    seg, fade, vfade, _, t = phase(_columns(caches, slot, v, 1), generic, c, local, GENERIC, 0.0, segments.shape[0],
+                                   blend)  # fmt: skip
+    columns = _part(verbs[6], verbs[7], v)
     reach = goal_weight(goal_window, t) if columns.shape[0] > 0 else 0.0
-    query_into(out[:nd], segments, caches[0][k][c], seg, blend, seam, fade, vfade, min(VELOCITIES, nd), reach,
-               caches[3][k][c], columns)  # fmt: skip
-    if verbs[2][v]:
+    query_into(out[:nd], segments, _columns(caches, slot, v, 0)[c], seg, blend, seam, fade, vfade,
+               min(VELOCITIES, nd), reach, _columns(caches, slot, v, 3)[c], columns)  # fmt: skip
+    if verbs[5][v]:
         for d in range(VELOCITIES, nd):
             out[d] += lap * seam[d]
 
@@ -239,7 +273,7 @@ def _base(c, ga, gb, verbs, caches, state, d_a, d_b, vel, blend):  # pragma: no 
         if gb < 0.0:  # B playing its previous cycle: its velocities' seam taken off (player._seam_rise)
             b = beta[c]
             u = 1.0 - (1.0 - b) ** 2 * (1.0 + 2.0 * b) - 3.0 * b * (1.0 - b)
-            seam = caches[2][2 * into[c] + 1][c]
+            seam = _columns(caches, 1, into[c], 2)[c]
             w = u * rate_b
             for a in range(3):
                 vel[a] -= w * seam[a]
@@ -261,8 +295,8 @@ def _decode(c, x, z, heading, alpha, verbs, state, d_a, d_b, rot, trans, rot_b, 
 @njit(cache=True, inline="always")
 def _decode_verb(v, d, x, z, heading, verbs, rot, trans):  # pragma: no cover - compiled
     decode_row(
-        d, x, z, heading, verbs[5][v], verbs[6][v], verbs[7][v], verbs[8][v], verbs[9][v], verbs[11][v], verbs[12][v],
-        verbs[10][v], rot, trans,
+        d, x, z, heading, _part(verbs[9], verbs[10], v), verbs[11][v], _part(verbs[12], verbs[13], v), verbs[14][v],
+        verbs[15][v], verbs[17][v], verbs[18][v], verbs[16][v], rot, trans,
     )  # fmt: skip
 
 
@@ -280,13 +314,13 @@ def _phases(v, slot, c, g, verbs, caches, held, roll, swing):  # pragma: no cove
     """``player.hold_phases`` of one verb instance: its holds at generic time ``g`` into the graph's feet columns."""
     for i in range(held.shape[0]):
         held[i], roll[i], swing[i] = False, 0.0, 0.0
-    if not verbs[15][v]:
+    if not verbs[23][v]:
         return
-    opens, cols, cyclic = verbs[13][v], verbs[14][v], verbs[2][v]
-    times = caches[4][2 * v + slot][c]
+    opens, cols, cyclic = _part(verbs[19], verbs[20], v), _part(verbs[21], verbs[22], v), verbs[5][v]
+    times = _columns(caches, slot, v, 4)[c]
     t = g - math.floor(g) if cyclic else min(max(g, 0.0), 1.0)
     for k in range(opens.shape[0]):
-        held[cols[k]], roll[cols[k]], swing[cols[k]] = hold_mode(cyclic, t, opens[k], times[k])
+        held[cols[k]], roll[cols[k]], swing[cols[k]] = hold_mode(cyclic, t, opens[k], times[3 * k : 3 * k + 3])
 
 
 @njit(cache=True)
@@ -426,18 +460,17 @@ def frame(lo, hi, dt, flags, turns, box):  # pragma: no cover - compiled
 
     ``flags = (first, shown, shown before, held before, planter starting, any foot re-placed)``; ``turns``: which
     of the three pose buffers is new, shown and shown before, and which of the two planted ones is written.
-    ``box``: a one-item typed list of what does not change from frame to frame (passing it costs one argument
-    where its arrays would cost a hundred): ``(verbs, transitions, skeleton, caches, state, head, poses, outputs,
-    k_, chunk, n_d, planted)``.
+    ``box``: what does not change from frame to frame, ``(verbs, transitions, skeleton, caches, state, head, poses,
+    outputs, k_, chunk, n_d, planted)``.
     """
-    return _frame(lo, hi, dt, flags, turns, box[0], None)
+    return _frame(lo, hi, dt, flags, turns, box, None)
 
 
 @njit(cache=True, nogil=True)
 def frame_planted(lo, hi, dt, flags, turns, box, feet):  # pragma: no cover - compiled
-    """:func:`frame`, then :func:`_plant` on each chunk's poses; ``feet``: a one-item typed list of the planter's
-    arrays. Returns whether every foot target was finite."""
-    return _frame(lo, hi, dt, flags, turns, box[0], feet[0])
+    """:func:`frame`, then :func:`_plant` on each chunk's poses; ``feet``: the planter's arrays. Returns whether every
+    foot target was finite."""
+    return _frame(lo, hi, dt, flags, turns, box, feet)
 
 
 @njit(cache=True)
@@ -458,7 +491,7 @@ def _frame(lo, hi, dt, flags, turns, boxed, feet):  # pragma: no cover - compile
 
 @njit(cache=True)
 def _plant(lo, hi, outputs, planted, feet, start, any_replanting, k_):  # pragma: no cover - compiled
-    """``player.plant`` for creatures ``lo`` to ``hi``: the planter's kernel on their poses (in place), then which feet
+    """``planted.plant`` for creatures ``lo`` to ``hi``: the planter's kernel on their poses (in place), then which feet
     to re-place (``GraphFeet``). ``start``: the planter's first frame; ``any_replanting``: any foot being re-placed."""
     held, roll, swing, alone = outputs[0], outputs[1], outputs[2], outputs[3]
     (parents, generic, inside, dts, times, cyclic, verb_floor, tips, root, legs, constants, floor, st, chain,

@@ -2,17 +2,17 @@
 
 Two kinds of work, kept apart (the runtime of §6, laid out as ozz-animation lays out its jobs):
 
-* **Events decide**, in Python, at the times they happen: a command (:func:`adverbs.graph.player.command`), the
+* **Events decide**, in Python, at the times they happen: a command (:func:`adverbs.graph.queue.command`), the
   queue (a transition popped when it starts, one drawn by likelihood when the queue empties), a latency noted,
   an adverb point changed (each verb's cached weights, keytimes and hold times brought up to date for the
   creatures whose point moved). They write into the creatures' arrays: the
-  :class:`~adverbs.graph.player.GraphState` and the planter's state, owned by the caller.
+  :class:`~adverbs.graph.state.GraphState` and the planter's state, owned by the caller.
 * **Frames compute**: :meth:`FramePass.step` runs :func:`adverbs.runtime._frame_kernel.frame` once for every
   creature of a group — clocks → sample (one or two verbs) → blend → decode → advance the root → FK → plant →
   IK → the pose shown — reading the graph's immutable tables (laid out once, :func:`tables`) and those arrays,
   on every core, with no Python per creature. One creature is ``C = 1`` through the same pass.
 
-The pass computes what :func:`adverbs.graph.player.step` then :func:`adverbs.graph.player.plant` compute (the
+The pass computes what :func:`adverbs.graph.player.step` then :func:`adverbs.graph.planted.plant` compute (the
 readable path, kept as the reference and for what the kernel does not take: DOF encodings other than
 log-quaternions, floors given as Python functions): ``tests/test_frame.py`` holds the two together over a long
 seeded run of the shipped graphs, and holds one thread to all.
@@ -22,20 +22,22 @@ The poses a step returns are the pass's own buffers, written again two frames la
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import operator
 from dataclasses import dataclass
 from weakref import WeakKeyDictionary
 
 import numpy as np
-from numba import typed
+import numba
 
 from ..errors import AdverbsError
-from ..graph import player
-from ..graph.player import GraphFeet, GraphState, sync_head
+from ..graph import clocks, planted, queue, state as graph_state
+from ..graph.planted import GraphFeet
+from ..graph.state import GraphState, sync_head
 from ..graph.structure import Graph
-from ..verb import planting
-from ..verb.sampling import SEAM_BLEND
+from ..feet import planter as planting
+from ..verb.sampling import SEAM_BLEND, SamplingState
 from . import _frame_kernel as kernel
 
 CHUNK = 64  # creatures: each chunk allocates the kernel's working arrays once a frame, and plants its feet in one call
@@ -66,6 +68,13 @@ def supported(graph: Graph) -> str | None:
     return None
 
 
+def packed(arrays: list[np.ndarray], dtype=float) -> tuple[np.ndarray, np.ndarray]:
+    """Arrays of different shapes as one flat array and the offsets ``(n + 1,)`` of each one's part in it."""
+    sizes = [np.size(a) for a in arrays]
+    flat = np.concatenate([np.ravel(np.asarray(a, dtype=dtype)) for a in arrays]) if arrays else np.zeros(0, dtype)
+    return np.ascontiguousarray(flat, dtype=dtype), np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
+
+
 def tables(graph: Graph) -> Tables:
     """``graph``'s tables laid out for the kernel (once per graph; a graph never changes)."""
     found = _TABLES.get(graph)
@@ -75,31 +84,26 @@ def tables(graph: Graph) -> Tables:
     if why:
         raise AdverbsError(f"graph {graph.name!r}: {why}")
 
-    def listed(arrays, dtype=float):
-        out = typed.List()
-        for a in arrays:
-            out.append(np.ascontiguousarray(a, dtype=dtype))
-        return out
-
     vs = graph.verbs
     enc = [v.encoding for v in vs]
     no_window = np.zeros(3)
     verbs = (
-        listed(v.segments for v in vs),
-        listed(v.generic_keytimes for v in vs),
+        *packed([v.segments for v in vs]),
+        np.array([v.segments.shape for v in vs], dtype=np.int64),
+        *packed([v.generic_keytimes for v in vs]),
         np.array([v.cyclic for v in vs], dtype=np.bool_),
-        listed((np.zeros(0) if v.goal is None else v.goal.columns for v in vs), np.int64),
+        *packed([np.zeros(0) if v.goal is None else v.goal.columns for v in vs], np.int64),
         np.array([no_window if v.goal is None else v.goal.window for v in vs], dtype=float),
-        listed((e.rotated for e in enc), np.int64),
-        listed(e.reference for e in enc),
-        listed((e.translated for e in enc), np.int64),
-        listed(e.base_translations for e in enc),
+        *packed([e.rotated for e in enc], np.int64),
+        np.array([e.reference for e in enc], dtype=float),
+        *packed([e.translated for e in enc], np.int64),
+        np.array([e.base_translations for e in enc], dtype=float),
         np.array([e.body_root for e in enc], dtype=np.int64),
         np.array([e.above_body[0] for e in enc], dtype=np.bool_),
         np.array([e.above_body[1] for e in enc], dtype=float),
         np.array([e.above_body[2] for e in enc], dtype=float),
-        listed(opens for opens, _ in graph.hold_layout),
-        listed((cols for _, cols in graph.hold_layout), np.int64),
+        *packed([opens for opens, _ in graph.hold_layout]),
+        *packed([cols for _, cols in graph.hold_layout], np.int64),
         np.array([bool(v.holds) for v in vs], dtype=np.bool_),
     )  # fmt: skip
     ts = graph.transitions
@@ -122,14 +126,14 @@ def tables(graph: Graph) -> Tables:
 def _constants() -> np.ndarray:
     """The kernel's constants ``k_`` (see ``_frame_kernel``)."""
     return np.array([
-        player._LATE, player.MIN_DURATION, player.INERTIAL_HALFLIFE, SEAM_BLEND, planting._LN2, player.REPLANT,
-        player.REPLANTED, planting.SETTLE_HALFLIFE, planting.SWING_HALFLIFE, planting.LIFT_HALFLIFE,
+        graph_state._LATE, graph_state.MIN_DURATION, graph_state.INERTIAL_HALFLIFE, SEAM_BLEND, planting._LN2, planted.REPLANT,
+        planted.REPLANTED, planting.SETTLE_HALFLIFE, planting.SWING_HALFLIFE, planting.LIFT_HALFLIFE,
     ])  # fmt: skip
 
 
 class FramePass:
     """The compiled frame of one group of creatures on one graph: its state (a
-    :class:`~adverbs.graph.player.GraphState`) and, to plant their feet, its :class:`~adverbs.graph.player.GraphFeet`
+    :class:`~adverbs.graph.state.GraphState`) and, to plant their feet, its :class:`~adverbs.graph.planted.GraphFeet`
     (both the caller's), and the pass's working buffers.
 
     ``threads``: how many threads the pass may use (default: numba's, every core); results are the same for any.
@@ -146,7 +150,8 @@ class FramePass:
         for c in range(state.creatures):
             sync_head(state, c)
         self._pool = Threads(threads)
-        self._caches = self._cache_lists()
+        self._kernel, self._planted_kernel = Entry(kernel.frame), Entry(kernel.frame_planted)
+        self._caches = self._packed_caches()
         self._pairs = 2 * len(graph.verbs)
         self._seen = state.points.copy()  # the adverb points the caches were last brought up to date for
         self._fresh = {(v, slot) for v in range(len(graph.verbs)) for slot in (0, 1)}
@@ -171,19 +176,37 @@ class FramePass:
             self._ik_out = (np.empty((c, j, 3)), np.empty((c, j, 4)), np.empty((c, n, 3)), np.empty((c, n, 3, 3)))
             self._drop, self._residual = np.empty(c), np.empty((c, n))
 
-    def _cache_lists(self) -> tuple:
-        """Every verb's sampling caches in both slots, made now (empty until first brought up to date), as typed lists."""
+    def _packed_caches(self) -> tuple:
+        """Every verb's sampling caches in both slots as views of one ``(C, Σ)`` table per kind and slot, with each
+        kind's offsets (see ``_frame_kernel``): the :class:`~adverbs.verb.sampling.SamplingState` of each verb and
+        slot is made (or its rows copied) on those views and brought up to date, so the reference path's caches and
+        the pass's are the same numbers."""
         state, graph = self.state, self.graph
-        lists = tuple(typed.List() for _ in range(5))
-        for v in range(len(graph.verbs)):
+        c = state.creatures
+        widths = [
+            [len(v.examples) for v in graph.verbs],
+            [v.keytimes_table.shape[1] for v in graph.verbs],
+            [v.num_dofs for v in graph.verbs],
+            [0 if v.goal is None else len(v.goal.columns) for v in graph.verbs],
+            [3 * len(v.holds) for v in graph.verbs],
+        ]
+        offsets = tuple(np.concatenate([[0], np.cumsum(w)]).astype(np.int64) for w in widths)
+        tables = tuple(np.zeros((c, int(off[-1]))) for off in offsets for _ in (0, 1))
+        for v, verb in enumerate(graph.verbs):
             for slot in (0, 1):
-                s = player._sampling(state, v, slot)
-                holds = state.caches.get(((v, slot), "holds"))
-                if holds is None:
-                    holds = state.caches[(v, slot), "holds"] = np.zeros((state.creatures, 0, 3))
-                for out, a in zip(lists, (s.weights, s.keytimes, s.seam, s.goal, holds)):
-                    out.append(a)
-        return lists
+                views = [tables[2 * kind + slot][:, off[v] : off[v + 1]] for kind, off in enumerate(offsets)]
+                held = views[4].reshape(c, len(verb.holds), 3)  # a view still: its rows' columns are contiguous
+                old = state.caches.get((v, slot))
+                new = SamplingState.new(verb, c) if old is None else dataclasses.replace(old)
+                for name, view in zip(("weights", "keytimes", "seam", "goal"), views):
+                    view[...] = getattr(new, name)
+                    setattr(new, name, view)
+                if old is not None and state.caches.get(((v, slot), "holds")) is not None:
+                    held[...] = state.caches[(v, slot), "holds"]
+                state.caches[v, slot] = new
+                state.caches[(v, slot), "holds"] = held
+                clocks._sampling(state, v, slot)
+        return tables, offsets
 
     def _refresh(self) -> None:
         """Bring up to date the caches this frame reads: slot A of the verbs playing and being entered, slot B of the
@@ -201,14 +224,14 @@ class FramePass:
             self._seen = points.copy()
         for pair in self._needed():
             if pair not in self._fresh:
-                player._sampling(state, *pair)  # a point the verb refuses raises here, as on the reference path
+                clocks._sampling(state, *pair)  # a point the verb refuses raises here, as on the reference path
                 self._fresh.add(pair)
         if same:
             for v in range(len(self.graph.verbs)):
                 for slot in (0, 1):
                     if (v, slot) not in self._fresh:
                         try:
-                            player._sampling(state, v, slot)
+                            clocks._sampling(state, v, slot)
                         except AdverbsError:  # refused where no creature plays it: left until one does
                             continue
                         self._fresh.add((v, slot))
@@ -257,9 +280,10 @@ class FramePass:
         planted = self._planted[self._turn]
         box = self._box()
         if planting_on:
-            finite = all(self._pool.run(kernel.frame_planted, state.creatures, (dt, flags, turns, box, self._feet())))
+            feet = self._feet()
+            finite = all(self._pool.run(self._planted_kernel, state.creatures, (dt, flags, turns, box, feet), (box, feet)))
         else:
-            finite = all(self._pool.run(kernel.frame, state.creatures, (dt, flags, turns, box)))
+            finite = all(self._pool.run(self._kernel, state.creatures, (dt, flags, turns, box), (box,)))
         if planting_on:
             self.feet.planter.started = True
         self._events()
@@ -282,9 +306,9 @@ class FramePass:
                 a[...] = b
         return True
 
-    def _box(self):
-        """What the kernel reads and writes that stays put from frame to frame, in a one-item typed list (made again
-        only when an array was replaced: the reference path replaces some)."""
+    def _box(self) -> tuple:
+        """What the kernel reads and writes that stays put from frame to frame (made again only when an array was
+        replaced: the reference path replaces some)."""
         state = self.state
         arrays = (
             state.verb, state.g, state.into, state.g_into, state.active, state.beta, state.length, state.regions,
@@ -297,17 +321,15 @@ class FramePass:
             return self._boxed
         t = self.tables
         outputs = (self.held, self.roll, self.swing, self.alone, self.events, self.g_settle)
-        box = typed.List()
-        box.append((
+        self._box_key = key
+        self._boxed = (
             t.verbs, t.transitions, t.skeleton, self._caches, arrays, state.head, tuple(self._poses), outputs,
             self.constants, CHUNK, t.dofs, tuple(self._planted),
-        ))  # fmt: skip
-        self._box_key, self._boxed = key, box
-        return box
+        )  # fmt: skip
+        return self._boxed
 
-    def _feet(self):
-        """The planter's arrays as the kernel takes them, in a one-item typed list (made again only when one was
-        replaced)."""
+    def _feet(self) -> tuple:
+        """The planter's arrays as the kernel takes them (made again only when one was replaced)."""
         feet = self.feet
         p = feet.planter
         comp = p._compiled
@@ -315,14 +337,13 @@ class FramePass:
         key = (times, feet.replanting, *state)
         if self._feet_key is not None and all(map(operator.is_, key, self._feet_key)):
             return self._feet_boxed
-        box = typed.List()
-        box.append((
+        self._feet_key = key
+        self._feet_boxed = (
             comp.parents, comp.no_generic, self._inside, comp.dt, times, bool(p.verb.cyclic), float(p.verb.floor),
             comp.tips, comp.root, comp.legs, comp.constants, comp.floor, state, comp.chain, comp.ik_params,
             self._ik_out, self._drop, self._residual, feet.replanting,
-        ))  # fmt: skip
-        self._feet_key, self._feet_boxed = key, box
-        return box
+        )  # fmt: skip
+        return self._feet_boxed
 
     def _events(self) -> None:
         """The discrete half of the frame: queues of the creatures whose transition started or finished."""
@@ -333,8 +354,8 @@ class FramePass:
                 state.queue[c].pop(0)
                 sync_head(state, c)
             else:
-                player._settle_queue(state, c, float(self.g_settle[c]))
-                player._arrived(state, c)
+                graph_state._settle_queue(state, c, float(self.g_settle[c]))
+                queue._arrived(state, c)
         self.events[rows] = 0
 
 
@@ -352,16 +373,48 @@ class Threads:
         self.threads = n
         self._executor = None
 
-    def run(self, kernel, creatures: int, args: tuple, extra: tuple = ()) -> list:
-        """``kernel(lo, hi, *args, *extra)`` over ranges covering ``creatures``; the results in order."""
+    def run(self, kernel, creatures: int, args: tuple, key: tuple = ()) -> list:
+        """``kernel(lo, hi, *args)`` over ranges covering ``creatures``; the results in order. ``key``: passed on to
+        an :class:`Entry` (what its arguments' types hang on)."""
         n = max(1, min(self.threads, creatures // PER_THREAD))
+        if isinstance(kernel, Entry):
+            def call(lo: int, hi: int):
+                return kernel(key, lo, hi, *args)
+        else:
+            def call(lo: int, hi: int):
+                return kernel(lo, hi, *args)
         if n == 1:
-            return [kernel(0, creatures, *args, *extra)]
+            return [call(0, creatures)]
         if self._executor is None:
             from concurrent.futures import ThreadPoolExecutor
 
             self._executor = ThreadPoolExecutor(self.threads, thread_name_prefix="adverbs-frame")
         bounds = [creatures * k // n for k in range(n + 1)]
-        futures = [self._executor.submit(kernel, bounds[k], bounds[k + 1], *args, *extra) for k in range(1, n)]
-        first = kernel(bounds[0], bounds[1], *args, *extra)  # this thread takes the first range
+        futures = [self._executor.submit(call, bounds[k], bounds[k + 1]) for k in range(1, n)]
+        first = call(bounds[0], bounds[1])  # this thread takes the first range
         return [first] + [f.result() for f in futures]
+
+
+class Entry:
+    """A compiled kernel called straight through its compiled entry point once its argument types are known.
+
+    numba's dispatcher finds the compiled version for a call's argument types by typing each argument in Python;
+    for the pass's hundred arrays in nested tuples that costs about 200 µs a call, more than a small crowd's frame.
+    The types change only when the arrays passed do (``key``: the objects they hang on, compared by identity), so
+    the first call with a new key goes through the dispatcher (compiling, or loading numba's cache) and the
+    version it chose is called directly after that.
+    """
+
+    def __init__(self, dispatcher):
+        self.dispatcher = dispatcher
+        self._key: tuple | None = None
+        self._entry = None
+
+    def __call__(self, key: tuple, *args):
+        known = self._key is not None and len(key) == len(self._key) and all(map(operator.is_, key, self._key))
+        if known and self._entry is not None:
+            return self._entry(*args)
+        result = self.dispatcher(*args)
+        found = self.dispatcher.overloads.get(tuple(numba.typeof(a) for a in args))
+        self._key, self._entry = (key, found.entry_point) if found is not None else (None, None)
+        return result

@@ -37,12 +37,15 @@ import numpy as np
 
 from ..errors import AdverbsError, AdverbsWarning
 from ..limits import check_frames
-from ..graph.player import GraphFeet, GraphState, command, new_state, plant, planter, step
+from ..graph.planted import GraphFeet, plant, planter
+from ..graph.player import step
+from ..graph.queue import command
+from ..graph.state import GraphState, new_state
 from ..graph.structure import REACH, CommandRefused, Graph
 from ..kinematics.fk import forward_kinematics
 from ..kinematics.floor import FlatFloor, Floor
 from ..motion.clip import Clip
-from ..verb.planting import PlantingReport, report_of_modes
+from ..feet.offline import PlantingReport, report_of_modes
 from .events import NORMAL, SYNC, EventQueue, Processed, VirtualClock, WallClock, run_events
 from .frame import FramePass, supported
 
@@ -166,8 +169,8 @@ class Creature:
         return self._sim._clip(self)
 
     def holds(self) -> PlantingReport | None:
-        """What the planter held at every frame of :meth:`clip` (its phases, as :func:`~adverbs.verb.planting.plant_feet`
-        reports them), for :func:`~adverbs.verb.planting.measure_feet`; None if no foot is planted on this graph."""
+        """What the planter held at every frame of :meth:`clip` (its phases, as :func:`~adverbs.feet.planter.plant_feet`
+        reports them), for :func:`~adverbs.feet.planter.measure_feet`; None if no foot is planted on this graph."""
         return self._sim._holds(self)
 
     def __repr__(self) -> str:
@@ -183,7 +186,7 @@ class Simulation:
     frame for :meth:`Creature.clip` and :meth:`write`; ``realtime``: run on the wall clock (times ``speed``)
     rather than the virtual one; ``compiled``: step each group's frame in one compiled pass
     (:mod:`adverbs.runtime.frame`; False: the readable reference path, :func:`adverbs.graph.player.step` then
-    :func:`~adverbs.graph.player.plant`, which any graph the pass cannot take uses anyway).
+    :func:`~adverbs.graph.planted.plant`, which any graph the pass cannot take uses anyway).
     """
 
     def __init__(

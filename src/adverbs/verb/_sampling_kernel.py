@@ -233,3 +233,51 @@ def refresh_batch(
             we = w[e]
             for d in range(nd):
                 seam[c, d] += we * seam_table[e, d]
+
+
+@njit(cache=True)
+def pose_one(
+    point, centre, inv_scale, example_q, inv_alpha, radial_from_values, lin_pinv, log_intervals, interval_bounds,
+    seam_table, segments, generic, clock, mode, window, max_gain, shortest, longest, points, cached, weights, keytimes,
+    seam, cycles, out,
+):  # pragma: no cover  # fmt: skip
+    """One creature's pose at adverb ``point (A,)`` and ``clock`` into ``out (D,)``, its state's row 0 (``points``,
+    ``cached``, ``weights``, ``keytimes``, ``seam``, ``cycles``) brought up to date first if the point is new: what
+    ``SamplingState.update`` then :func:`sample_batch` do for one query, in one call.
+
+    Returns 0, or why the point is refused, changing nothing: 1 not finite, 2 its weights blend the examples more than
+    ``max_gain`` times over, 3 its motion lasts outside ``shortest`` .. ``longest`` seconds.
+    """
+    na = point.shape[0]
+    for a in range(na):
+        if not math.isfinite(point[a]):
+            return 1
+    same = cached[0]
+    for a in range(na):
+        same = same and point[a] == points[0, a]
+    if not same:
+        p = point.reshape((1, na))
+        rows = np.zeros(1, np.int64)
+        w, k, s = np.empty((1, weights.shape[1])), np.empty((1, keytimes.shape[1])), np.empty((1, seam.shape[1]))
+        refresh_batch(p, rows, centre, inv_scale, example_q, inv_alpha, radial_from_values, lin_pinv, log_intervals,
+                      interval_bounds, seam_table, w, k, s)  # fmt: skip
+        gain = 0.0
+        for e in range(w.shape[1]):
+            gain += abs(w[0, e])
+        if not gain <= max_gain:
+            return 2
+        length = k[0, k.shape[1] - 1]
+        if not (shortest <= length <= longest):
+            return 3
+        points[0, :] = point
+        weights[0, :] = w[0]
+        keytimes[0, :] = k[0]
+        seam[0, :] = s[0]
+        cached[0] = True
+    ncp, _, nd = segments.shape
+    blend = np.empty(4)
+    seg, fade, vfade, cycles[0], _ = phase(keytimes, generic, 0, clock, mode, window, ncp, blend)
+    no_goal = np.zeros(0)
+    query_into(out, segments, weights[0], seg, blend, seam[0], fade, vfade, min(VELOCITIES, nd), 0.0, no_goal,
+               np.zeros(0, np.int64))  # fmt: skip
+    return 0

@@ -38,7 +38,7 @@ from ..compiled import one_blas_thread
 from ..errors import AdverbsError
 from ..interp import bspline, timewarp
 from . import goal as goals
-from ._sampling_kernel import CYCLE_EPS, CYCLIC, GENERIC, GROUPED, ONE_SHOT, VELOCITIES, refresh_batch, sample_batch
+from ._sampling_kernel import CYCLE_EPS, CYCLIC, GENERIC, GROUPED, ONE_SHOT, VELOCITIES, pose_one, refresh_batch, sample_batch
 
 if TYPE_CHECKING:
     from .tables import Verb
@@ -282,7 +282,24 @@ def pose(verb: Verb, p: np.ndarray, clock: float, state: SamplingState | None = 
     p = np.asarray(p, dtype=float)
     if p.shape != (len(verb.adverbs),):
         raise AdverbsError(f"verb {verb.name!r} takes {len(verb.adverbs)} adverbs, got shape {p.shape}")
-    return _sample_state(verb, p[None], np.array([clock]), state)[0][0]
+    if verb.goal is not None:  # the goal chain's solve is Python: the general path
+        return _sample_state(verb, p[None], np.array([clock]), state)[0][0]
+    if state is None:
+        state = SamplingState.new(verb, 1)
+    state.check(verb, 1)
+    # One compiled call: the point checked and cached if new, then sampled (SamplingState.update and run_kernel's
+    # arithmetic for one creature; a test holds the two paths together).
+    out = np.empty(verb.num_dofs)
+    d = verb.num_dofs if verb.cyclic else 0
+    refused = pose_one(
+        p, *verb.interpolator.kernel_tables, verb.log_intervals, verb.interval_bounds, verb.seam_table[:, :d],
+        verb.segments, verb.generic_keytimes, clock, mode(verb), SEAM_BLEND, MAX_GAIN, SHORTEST_CYCLE, LONGEST_CYCLE,
+        state.points, state.cached, state.weights, state.keytimes, state.seam[:, :d], state.cycle, out,
+    )  # fmt: skip
+    if refused:
+        state.update(verb, p[None])  # says why, as the general path does, and changes nothing
+        raise AdverbsError(f"verb {verb.name!r}: adverb point refused")  # (update has raised already)
+    return out
 
 
 def clocks_dofs(verb: Verb, state: SamplingState, rows: np.ndarray, clocks: np.ndarray) -> np.ndarray:

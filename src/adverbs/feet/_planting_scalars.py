@@ -1,7 +1,7 @@
 """Scalar rules of planted feet shared by the compiled loops: the planter's (:mod:`._planting_kernel`) and a verb
 graph's hold lookup (:mod:`adverbs.graph._time_kernel`) and decaying offsets (:mod:`adverbs.graph._blend_kernel`).
 
-Each mirrors a NumPy function of :mod:`adverbs.verb.planting` (named in its docstring), with the same arithmetic.
+Each mirrors a NumPy function of :mod:`adverbs.feet.planter` (named in its docstring), with the same arithmetic.
 A module of its own, so a graph's kernels need not load the planter's.
 """
 

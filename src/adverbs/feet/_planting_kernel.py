@@ -1,6 +1,6 @@
-"""The compiled loop behind :class:`adverbs.verb.planting.FootPlanter`: its state machine, creature by creature, leg by leg.
+"""The compiled loop behind :class:`adverbs.feet.planter.FootPlanter`: its state machine, creature by creature, leg by leg.
 
-Every function mirrors a piece of the NumPy reference in :mod:`adverbs.verb.planting` (same rules, same
+Every function mirrors a piece of the NumPy reference in :mod:`adverbs.feet.planter` (same rules, same
 order of operations, named in each docstring), so the two agree to rounding; ``tests/test_planting_kernel.py``
 holds them to it. The reference is vectorized over creatures and legs; here one effector at a time goes
 through the frame, which comes to the same: no effector's rules read another's, but for a creature's

@@ -1,10 +1,10 @@
-"""Planted feet: a verb's constraints enforced on its motion, one frame at a time (§3.3).
+"""The foot planter: a verb's constraints enforced on its motion, one frame at a time (§3.3).
 
 :class:`FootPlanter` keeps, for each of ``C`` creatures and each constrained effector, what the
 planting needs to remember between frames, and :meth:`FootPlanter.step` advances them all by one
-frame. Offline planting (:func:`plant_feet`, :func:`plant_feet_many`) is the same planter run over
-every frame of a clip, then one batched IK solve: it gives the same motion as feeding the frames
-one by one (``tests/test_feet.py``).
+frame. Offline planting (:func:`adverbs.feet.offline.plant_feet`, :func:`~adverbs.feet.offline.plant_feet_many`)
+is the same planter run over every frame of a clip, then one batched IK solve: it gives the same motion as
+feeding the frames one by one (``tests/test_feet.py``).
 
 Per effector, with ``g`` the frame's generic time and :class:`~adverbs.verb.constraints.Hold` ``h``
 (its times blended at the creature's adverb point from the examples' own contacts):
@@ -45,8 +45,6 @@ floor that is not flat the feet are tilted to the surface.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -55,10 +53,8 @@ from ..interp import timewarp
 from ..kinematics import ik, quat
 from ..kinematics.fk import forward_kinematics
 from ..kinematics.floor import FlatFloor, Floor, HeightMapFloor, SlopeFloor, tilt
-from ..motion.clip import Clip
-from ..motion.contacts import runs
 from ._planting_scalars import SWING_LANDING
-from .tables import Verb
+from ..verb.tables import Verb
 
 LIFT_HALFLIFE = 0.015  # seconds: the vertical part of a released foot's offset halves this fast
 SWING_HALFLIFE = 0.1  # seconds: the horizontal part, slower, so the foot lifts before it travels
@@ -83,18 +79,6 @@ LIFT_BLEND = 0.02  # metres: within this of the least lift, the verb's swing joi
 LIFTS_OFF = 0.02  # metres: a rolling foot's ball this far above its contact level is lifting off
 STILL_DOWN = 0.005  # metres: a held ball the verb raises less than this over its level is still down
 TOE_LANDS = 0.003  # metres: a rolling foot's ball this close to its contact height has landed
-
-
-@dataclass
-class PlantingReport:
-    """What planting did: hold phases per effector (frames ``[start, stop)``), and what it could not do."""
-
-    phases: list[list[tuple[int, int]]]
-    root_drop: np.ndarray  # (F,) metres
-    unreachable: int  # frames × effectors whose target stayed out of reach
-    warnings: list[str] = field(default_factory=list)
-    flat: list[list[tuple[int, int]]] = field(default_factory=list)  # heel and ball held (foot flat)
-    heel: list[list[tuple[int, int]]] = field(default_factory=list)  # heel held (heel strike to heel-off)
 
 
 class FootPlanter:
@@ -638,269 +622,6 @@ def frame_generic(verb: Verb, keytimes: np.ndarray, times: np.ndarray) -> np.nda
     return g
 
 
-def phase_masks(
-    verb: Verb, keytimes: np.ndarray, clip: Clip, weights: np.ndarray | None = None
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Where each effector itself is held (foot flat to toe-off), where its foot is flat (heel and ball
-    held: foot flat to heel-off) and where its heel is held (heel strike to heel-off), as the examples'
-    contact times say: masks ``(F, L)`` over the frames of ``clip``, a motion of ``verb`` with
-    ``keytimes`` at cardinal ``weights (E,)`` (default: the holds' mean times). (The planter lands the
-    ball when it reaches the floor; what it did is in its :class:`PlantingReport`.)"""
-    g = frame_generic(verb, keytimes, np.arange(clip.num_frames) / clip.fps)
-    opens = np.array([h.open for h in verb.holds])
-    times = verb.hold_times(weights) if weights is not None else np.array([h.times for h in verb.holds])
-    inside, turn = hold_modes(verb.cyclic, g[:, None], opens, times)
-    into = (g[:, None] - opens) % 1.0 if verb.cyclic else g[:, None] - opens
-    ball = inside & (into >= times[..., 0] - opens)
-    return ball, ball & (turn == 0.0), inside & (turn == 0.0)
-
-
-def mode_masks(modes: np.ndarray, turns: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Ball held, foot flat and heel held ``(F, L)`` from the planter's modes and turn-back weights."""
-    ball = modes == BALL
-    return ball, ball & (turns == 0.0), (modes != FREE) & (turns == 0.0)
-
-
-def report_of_modes(
-    modes: np.ndarray, turns: np.ndarray, root_drop: np.ndarray, unreachable: int = 0, miss: float = 0.0
-) -> PlantingReport:
-    """The :class:`PlantingReport` of the planter's modes and turn-back weights ``(F, L)`` frame by frame: its
-    phases, the ``root_drop (F,)`` and, with ``unreachable`` effector-frames, the warning naming the largest
-    ``miss`` (metres)."""
-    held, flat, heel = mode_masks(modes, turns)
-    legs = range(modes.shape[1])
-    warnings = [
-        f"{unreachable} effector-frames could not reach their targets (largest miss {1000 * miss:.0f} mm); "
-        "the pose was left as close as it gets"
-    ] if unreachable else []  # fmt: skip
-    return PlantingReport(
-        [runs(held[:, i]) for i in legs], root_drop, unreachable, warnings, [runs(flat[:, i]) for i in legs],
-        [runs(heel[:, i]) for i in legs],
-    )  # fmt: skip
-
-
-def phase_frames(
-    verb: Verb, keytimes: np.ndarray, clip: Clip, weights: np.ndarray | None = None
-) -> list[list[tuple[int, int]]]:
-    """Each effector's held phases in frames ``[start, stop)`` of ``clip`` (a motion of ``verb`` with ``keytimes``)."""
-    held = phase_masks(verb, keytimes, clip, weights)[0]
-    return [runs(held[:, i]) for i in range(held.shape[1])]
-
-
-def plant_feet(
-    verb: Verb, clip: Clip, keytimes: np.ndarray, floor: Floor | None = None, point: np.ndarray | None = None
-) -> tuple[Clip, PlantingReport]:
-    """Enforce ``verb``'s constraints on ``clip`` (synthesized by it at adverb ``point`` with ``keytimes``) on ``floor``.
-
-    The :class:`FootPlanter` run over the frames in order, then every frame's legs in one batched IK
-    solve: the same motion as planting one frame at a time. ``point`` sets when each foot lands and
-    lifts (the examples' own contact times, blended); without it, their mean.
-    """
-    return plant_feet_many(verb, [(clip, keytimes, point)], floor)[0]
-
-
-def _checked_motion(verb: Verb, i: int, motion) -> tuple[Clip, np.ndarray, np.ndarray | None]:
-    """Motion ``i`` as ``(clip, keytimes, point)``, refused unless it can be a motion of ``verb``: its clip on the
-    verb's skeleton, its keytimes as many as the verb's, from 0 and in order, its point one of the verb's."""
-    if not isinstance(motion, tuple | list) or len(motion) not in (2, 3) or not isinstance(motion[0], Clip):
-        raise AdverbsError(f"motion {i}: give (clip, keytimes) or (clip, keytimes, point), got {type(motion).__name__}")
-    clip, keytimes, point = motion[0], motion[1], motion[2] if len(motion) > 2 else None
-    what = f"motion {i} (clip {clip.name!r})"
-    why = verb.skeleton.structure_difference(clip.skeleton)
-    if why is not None:
-        raise AdverbsError(f"{what} is not on the skeleton of verb {verb.name!r}: {why}")
-    k = timewarp.check_keytimes(keytimes, f"{what}: keytimes")
-    if k.shape != verb.generic_keytimes.shape or k[0] < 0:
-        raise AdverbsError(
-            f"{what}: keytimes must be {len(verb.generic_keytimes)} times in seconds from 0 (as synthesize returns "
-            f"them), got shape {k.shape} from {k.flat[0]:g}"
-        )
-    return clip, k, None if point is None else verb.point(point)
-
-
-def plant_feet_many(
-    verb: Verb, motions: Sequence[tuple], floor: Floor | None = None
-) -> list[tuple[Clip, PlantingReport]]:
-    """:func:`plant_feet` for many creatures' motions of one verb, ``(clip, keytimes)`` or ``(clip, keytimes,
-    point)`` each (their own adverbs, keytimes and length): every frame of every creature goes through
-    one batched IK solve.
-    """
-    floor = FlatFloor(verb.floor) if floor is None else floor
-    motions = [_checked_motion(verb, i, m) for i, m in enumerate(motions)]
-    if not verb.constraints:
-        return [(clip, PlantingReport([], np.zeros(clip.num_frames), 0)) for clip, _, _ in motions]
-    # Every creature's planter state advanced together, frame by frame (shorter clips repeat their last
-    # frame; what comes after their end is dropped): the state machine is vectorized over creatures.
-    c, longest = len(motions), max(clip.num_frames for clip, _, _ in motions)
-    weights = np.stack([verb.weights(verb.point(p)) if p is not None else np.full(len(verb.examples), np.nan)
-                        for _, _, p in motions])  # fmt: skip
-    planter = FootPlanter(verb, c, floor)
-    known = ~np.isnan(weights[:, 0])
-    if known.any():
-        planter.times[known] = verb.hold_times(weights[known])
-    fk = [clip.forward_kinematics() for clip, _, _ in motions]
-    tips, ends = planter.tips, planter.chains.end
-    free_pos = np.empty((longest, c, len(tips), 3))
-    free_rot = np.empty((longest, c, len(tips), 3, 3))
-    g = np.empty((longest, c))
-    for i, ((clip, keytimes, _), (gpos, grot)) in enumerate(zip(motions, fk)):
-        n = clip.num_frames
-        free_pos[:n, i], free_rot[:n, i] = gpos[:, tips], quat.to_matrix(grot[:, ends])
-        free_pos[n:, i], free_rot[n:, i] = free_pos[n - 1, i], free_rot[n - 1, i]
-        g[:n, i] = frame_generic(verb, keytimes, np.arange(n) / clip.fps)
-        g[n:, i] = g[n - 1, i]
-    dt = np.array([1.0 / clip.fps for clip, _, _ in motions])
-    tg, wanted = np.empty_like(free_pos), np.empty_like(free_rot)
-    modes, turns = np.empty(free_pos.shape[:3], dtype=int), np.empty(free_pos.shape[:3])
-    roots = np.empty((longest, c, 3))
-    hips = np.empty((longest, c, len(tips), 3))
-    for i, ((clip, _, _), (gpos, _)) in enumerate(zip(motions, fk)):
-        n = clip.num_frames
-        roots[:n, i], hips[:n, i] = gpos[:, verb.encoding.body_root], gpos[:, planter.chains.upper]
-        roots[n:, i], hips[n:, i] = roots[n - 1, i], hips[n - 1, i]
-    rises, drops = np.empty((longest, c)), np.empty((longest, c))
-    for f in range(longest):
-        tg[f], wanted[f] = planter.targets(free_pos[f], free_rot[f], g[f], dt)
-        modes[f], turns[f] = planter.mode, planter.turn
-        rises[f] = _rise(verb, floor, roots[f], tg[f])
-        drops[f] = planter.drop_for(hips[f], rises[f], tg[f], wanted[f], dt)
-    rots, trans, targets, tilts, starts, min_drops = [], [], [], [], [0], []
-    for i, ((clip, _, _), (_, grot)) in enumerate(zip(motions, fk)):
-        n = clip.num_frames
-        rots.append(clip.rotations)
-        trans.append(_ride_floor(verb, planter.chains, clip.translations, grot, rises[:n, i]))
-        targets.append(tg[:n, i])
-        tilts.append(planter._tilts(wanted[:n, i], free_rot[:n, i]))
-        min_drops.append(drops[:n, i])
-        starts.append(starts[-1] + n)
-    result = ik.solve(
-        verb.leg_chains, np.concatenate(rots), np.concatenate(trans), np.concatenate(targets), np.concatenate(tilts),
-        min_drop=np.concatenate(min_drops),
-    )  # fmt: skip
-    out = []
-    for i, ((clip, _, _), a, b) in enumerate(zip(motions, starts[:-1], starts[1:])):
-        n = clip.num_frames
-        unreachable = int(np.count_nonzero(result.unreachable[a:b]))
-        planted = clip.replace(rotations=result.rotations[a:b], translations=result.translations[a:b])
-        report = report_of_modes(
-            modes[:n, i], turns[:n, i], result.root_drop[a:b], unreachable, float(result.residual[a:b].max(initial=0.0))
-        )
-        out.append((planted, report))
-    return out
-
-
-def planted_drift(positions: np.ndarray, spans: list[tuple[int, int]]) -> np.ndarray:
-    """Per contact phase ``[start, stop)``: the largest horizontal distance from where it began, ``(P,)`` metres."""
-    out = []
-    for a, b in spans:
-        xz = positions[a:b][:, [0, 2]]
-        out.append(float(np.linalg.norm(xz - xz[0], axis=-1).max()) if len(xz) else 0.0)
-    return np.array(out)
-
-
-def foot_drift(verb: Verb, clip: Clip, keytimes: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
-    """:func:`planted_drift` of every constrained effector of ``clip`` over the phases the examples' contact
-    times give (:func:`phase_frames`; a planted clip's own are in its report), all together, metres."""
-    gpos = clip.global_positions()
-    spans = phase_frames(verb, keytimes, clip, weights)
-    return np.concatenate([planted_drift(gpos[:, e], s) for e, s in zip(effector_joints(verb), spans)] or [np.zeros(0)])
-
-
 def effector_joints(verb: Verb) -> list[int]:
     """Joint index of each constraint's effector."""
     return [verb.skeleton.index(c.effector) for c in verb.constraints]
-
-
-
-@dataclass
-class FootMetrics:
-    """What planted feet look like, measured on the output's joints (metres, m/s); see :func:`measure_feet`.
-
-    ``toe_drift (P,)``: per held phase of the ball, its largest horizontal distance from where the phase
-    began. ``heel_drift (Q,)``: the same for the ankle over each phase where the foot is flat.
-    ``lowest``: the lowest any constrained effector gets, against the floor plus its contact height
-    (negative: through the floor). ``held_height``: the largest distance of a held ball from the floor
-    plus its contact height while the foot is flat (rolling off, it rises with the verb's). ``slide (R,)``: per release, how far the foot moves horizontally before it
-    rises ``LIFTED`` above its contact height, on its way up (``free_slide``: the same for the verb's own
-    motion, if given). ``release_speed (R,)``: the foot's largest speed over the
-    three frames after each release. ``unreachable``: effector-frames the IK could not reach.
-    """
-
-    toe_drift: np.ndarray
-    heel_drift: np.ndarray
-    lowest: float
-    held_height: float
-    slide: np.ndarray
-    release_speed: np.ndarray
-    unreachable: int
-    free_slide: np.ndarray = field(default_factory=lambda: np.zeros(0))
-
-    def line(self) -> str:
-        """One line for a terminal."""
-        def mm(x: np.ndarray, f=np.max) -> str:
-            return f"{1000 * f(x):.1f}" if len(x) else "-"
-
-        return (
-            f"toe drift median {mm(self.toe_drift, np.median)} / max {mm(self.toe_drift)} mm, heel drift max "
-            f"{mm(self.heel_drift)} mm, lowest {1000 * self.lowest:+.1f} mm, held height within "
-            f"{1000 * self.held_height:.1f} mm, slide after release max {mm(self.slide)} mm, "
-            f"{self.unreachable} effector-frames out of reach"
-        )
-
-
-def measure_feet(
-    verb: Verb, planted: Clip, report: PlantingReport, floor: Floor | None = None, free: Clip | None = None
-) -> FootMetrics:
-    """:class:`FootMetrics` of ``planted`` (what :func:`plant_feet` returned with ``report``) on ``floor``.
-
-    With ``free``, the verb's own motion that was planted, ``free_slide`` measures its toe the same way
-    against its own contact level (the lowest it was over the hold before): the slide the verb itself
-    has (a foot that sweeps the ground in a pivot turn).
-    """
-    floor = FlatFloor(verb.floor) if floor is None else floor
-    gpos = planted.global_positions()
-    tips = effector_joints(verb)
-    toe, ankle = gpos[:, tips], gpos[:, verb.leg_chains.end]
-    height = np.array([0.0 if h.height is None else h.height for h in verb.holds])
-    follows = np.array([h.height is None for h in verb.holds])
-    above = toe[..., 1] - floor.height(toe[..., [0, 2]]) - height
-    speed = np.zeros(toe.shape[:2])
-    speed[1:] = np.linalg.norm(np.diff(toe, axis=0), axis=-1) * planted.fps
-    releases = [(i, a, b) for i in range(len(tips)) for a, b in report.phases[i] if b < planted.num_frames]
-    held = [np.abs(above[a:b, i]).max() for i in range(len(tips)) if not follows[i] for a, b in report.flat[i]]
-    free_slide = np.zeros(0)
-    if free is not None:
-        ftoe = free.global_positions()[:, tips]
-        lift = ftoe[..., 1] - verb.floor - height
-        # Against the verb's own contact level: the lowest its toe was over the hold before each release.
-        own = np.full(lift.shape, np.inf)
-        for i, a, b in releases:
-            nxt = min([s for s, _ in report.phases[i] if s > a] or [len(ftoe)])
-            own[b:nxt, i] = lift[b:nxt, i] - lift[a:b, i].min()
-        free_slide = _slides(ftoe, own, releases, report.phases)
-    return FootMetrics(
-        np.concatenate([planted_drift(toe[:, i], report.phases[i]) for i in range(len(tips))]),
-        np.concatenate([planted_drift(ankle[:, i], report.flat[i]) for i in range(len(tips))]),
-        float(np.where(follows, np.inf, above).min()) if not follows.all() else 0.0,
-        float(max(held, default=0.0)),
-        _slides(toe, above, releases, report.phases),
-        np.array([speed[b : b + 3, i].max() for i, _, b in releases]),
-        report.unreachable,
-        free_slide,
-    )
-
-
-def _slides(toe: np.ndarray, above: np.ndarray, releases: list, phases: list) -> np.ndarray:
-    """Per release ``(leg, start, stop)``: how far the toe travels horizontally before it has left the ground on its
-    way up: from its last held frame until it is first ``LIFTED`` above its contact height (``above (F, L)``), and
-    no further than the swing's highest point (before the next hold). So a foot that drags before it lifts
-    counts, and neither a landing nor a swing that later passes low again (a cycle's seam) does."""
-    out = []
-    for i, a, b in releases:
-        nxt = min([s for s, _ in phases[i] if s > a] or [len(toe)])
-        swing = above[b : max(nxt, b + 1), i]
-        apex = int(np.argmax(swing))
-        lifted = np.flatnonzero(swing >= LIFTED)
-        stop = b + (min(int(lifted[0]), apex + 1) if len(lifted) else apex + 1)
-        out.append(float(np.linalg.norm(np.diff(toe[b - 1 : stop, i][:, [0, 2]], axis=0), axis=-1).sum()))
-    return np.array(out)

@@ -1,0 +1,158 @@
+"""Time in a verb graph (§5): generic and clock times of each creature's verbs under its own keytimes, the
+verbs' cached weights, keytimes and hold times per creature (slot 0: the verb playing, A; slot 1: the one being
+entered, B), and where a transition puts A and B: each clock runs through its region as ``β`` goes from 0 to 1.
+
+A transition lasts the mean of its two regions' lengths in clock time at the current adverbs (:func:`duration`),
+and each verb's clock runs through its region at its own rate (:func:`_rates`), which scales its root velocities.
+"""
+
+from __future__ import annotations
+
+
+import numpy as np
+
+from ..verb.sampling import SamplingState
+from ._time_kernel import clock_rows, generic_rows, later_rows
+from .state import GraphState
+
+
+def blend_weight(beta: np.ndarray) -> np.ndarray:
+    """The paper's blend weight of the verb being left, ``α = 0.5 cos(βπ) + 0.5``, for ``β`` in ``[0, 1]``."""
+    return 0.5 * np.cos(np.clip(beta, 0.0, 1.0) * np.pi) + 0.5
+
+
+
+def clock_of(g: np.ndarray, keytimes: np.ndarray, generic: np.ndarray) -> np.ndarray:
+    """Clock time of generic times ``g (n,)`` or ``(n, k)`` under each row's ``keytimes (n, N)``; ``g < 0`` is the
+    previous cycle.
+
+    :func:`~adverbs.interp.timewarp.clock_time` on the cycle ``g`` falls in, plus the whole cycles before it;
+    compiled (:mod:`._time_kernel`).
+    """
+    return _rows(clock_rows, g, keytimes, generic)
+
+
+def generic_of(clock: np.ndarray, keytimes: np.ndarray, generic: np.ndarray) -> np.ndarray:
+    """Generic time of clock times ``clock (n,)`` or ``(n, k)``: the inverse of :func:`clock_of`."""
+    return _rows(generic_rows, clock, keytimes, generic)
+
+
+def _rows(kernel, x: np.ndarray, keytimes: np.ndarray, generic: np.ndarray, *extra) -> np.ndarray:
+    x = np.asarray(x, dtype=float)
+    grid = np.ascontiguousarray(x.reshape(len(x), -1))
+    out = np.empty(grid.shape)
+    kernel(grid, *extra, np.ascontiguousarray(keytimes, dtype=float), np.ascontiguousarray(generic, dtype=float), out)
+    return out if x.ndim == 2 else out.reshape(x.shape)
+
+
+def duration(
+    source_region: tuple[float, float], target_region: tuple[float, float], keys_a: np.ndarray, keys_b: np.ndarray,
+    generic_a: np.ndarray, generic_b: np.ndarray,
+) -> np.ndarray:  # fmt: skip
+    """The paper's transition duration ``(n,)``: the mean of the two regions' lengths in clock time under keytimes ``(n, N)``."""
+    a = np.asarray(source_region, dtype=float).T
+    b = np.asarray(target_region, dtype=float).T
+    length_a = clock_of(np.broadcast_to(a[1], len(keys_a)), keys_a, generic_a) - clock_of(np.broadcast_to(a[0], len(keys_a)), keys_a, generic_a)
+    length_b = clock_of(np.broadcast_to(b[1], len(keys_b)), keys_b, generic_b) - clock_of(np.broadcast_to(b[0], len(keys_b)), keys_b, generic_b)
+    return 0.5 * (length_a + length_b)
+
+
+
+def _sampling(state: GraphState, v: int, slot: int) -> SamplingState:
+    """Verb ``v``'s cached weights and keytimes for every creature, in slot 0 (A) or 1 (B), up to date."""
+    graph = state.graph
+    verb = graph.verbs[v]
+    key = (v, slot)
+    s = state.caches.get(key)
+    if s is None:
+        s = state.caches[key] = SamplingState.new(verb, state.creatures)
+    if state.fresh is None or key not in state.fresh:  # within a step the adverbs hold still: once is enough
+        if s.update(verb, graph.verb_points(v, state.points)) and verb.holds:
+            times = verb.hold_times(s.weights)  # when each creature's feet land and lift
+            held = state.caches.get((key, "holds"))
+            if held is None:
+                state.caches[key, "holds"] = times
+            else:  # in place: the compiled frame holds on to the array
+                held[...] = times
+        if state.fresh is not None:
+            state.fresh.add(key)
+    return s
+
+
+def _hold_times(state: GraphState, v: int, slot: int) -> np.ndarray:
+    """Verb ``v``'s hold times ``(C, L, 3)`` at every creature's adverbs in slot 0 (A) or 1 (B) (see :meth:`Verb.hold_times`)."""
+    _sampling(state, v, slot)
+    return state.caches[(v, slot), "holds"]
+
+
+def _by_verb(verbs: np.ndarray, rows: np.ndarray) -> list[tuple[int, np.ndarray | slice]]:
+    """The verbs ``verbs[rows]`` plays, each with which of ``rows`` play it (a mask, or every one: ``slice(None)``)."""
+    vs = verbs[rows]
+    if len(vs) == 0:
+        return []
+    first = vs[0]
+    if len(vs) == 1 or not np.any(vs != first):  # one creature, or a crowd all in one verb: no sorting
+        return [(int(first), slice(None))]
+    return [(int(v), vs == v) for v in np.unique(vs)]
+
+
+def _warp(state: GraphState, verbs: np.ndarray, x: np.ndarray, slot: int, rows: np.ndarray, convert) -> np.ndarray:
+    """``x (n,)`` or ``(n, k)`` of the creatures ``rows`` in their verbs ``verbs[rows]`` (slot A or B) converted by
+    ``convert(x, keytimes, generic)`` (generic times to clock times, or back) under each creature's keytimes."""
+    out = np.zeros(np.shape(x))
+    for v, sel in _by_verb(verbs, rows):
+        keys = _sampling(state, v, slot).keytimes[rows[sel]]
+        out[sel] = convert(x[sel], keys, state.graph.verbs[v].generic_keytimes)
+    return out
+
+
+def _clock(state: GraphState, verbs: np.ndarray, g: np.ndarray, slot: int, rows: np.ndarray) -> np.ndarray:
+    """Clock times of generic times ``g (n,)`` or ``(n, k)``; see :func:`_warp`."""
+    return _warp(state, verbs, g, slot, rows, clock_of)
+
+
+def _generic(state: GraphState, verbs: np.ndarray, clock: np.ndarray, slot: int, rows: np.ndarray) -> np.ndarray:
+    """Generic times ``(n,)`` of clock times ``clock (n,)``: the inverse of :func:`_clock`."""
+    return _warp(state, verbs, clock, slot, rows, generic_of)
+
+
+def _later(state: GraphState, verbs: np.ndarray, g: np.ndarray, seconds: float, slot: int, rows: np.ndarray) -> np.ndarray:
+    """Generic times ``(n,)`` ``seconds`` of each creature's clock after ``g (n,)``: ``_generic(_clock(g) + seconds)``."""
+    return _warp(state, verbs, g, slot, rows, lambda x, keys, generic: _rows(later_rows, x, keys, generic, seconds))
+
+
+
+def _place(state: GraphState, rows: np.ndarray) -> None:
+    """Put A and B of the creatures ``rows`` in transition where ``β`` says: each clock through its region."""
+    if len(rows) == 0:
+        return
+    ca, cb = _region_clocks(state, rows)
+    beta = state.beta[rows]
+    state.g[rows] = _generic(state, state.verb, ca[:, 0] + beta * (ca[:, 1] - ca[:, 0]), 0, rows)
+    # B runs through its region, or (inertial) by its own clock from the region's start.
+    run = np.where(state.inertial[rows], state.length[rows], cb[:, 1] - cb[:, 0])
+    state.g_into[rows] = _generic(state, state.into, cb[:, 0] + beta * run, 1, rows)
+
+
+def _region_clocks(state: GraphState, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Clock times ``(n, 2)`` of the start and end of A's region and of B's in the transitions of ``rows``.
+
+    Within a step the keytimes hold still, so the same creatures in the same transitions and regions give the same
+    clocks: they are kept for the step (a step asks for them twice: to place A and B, and for their rates)."""
+    regions = state.regions[rows]
+    key = None
+    if state.regions_seen is not None:
+        key = (rows.tobytes(), regions.tobytes(), state.verb[rows].tobytes(), state.into[rows].tobytes())
+        if key in state.regions_seen:
+            return state.regions_seen[key]
+    out = _clock(state, state.verb, regions[:, :2], 0, rows), _clock(state, state.into, regions[:, 2:], 1, rows)
+    if key is not None:
+        state.regions_seen[key] = out
+    return out
+
+
+def _rates(state: GraphState, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """How fast A's and B's clocks run in the transitions of ``rows`` (seconds of verb per second)."""
+    ca, cb = _region_clocks(state, rows)
+    length = state.length[rows]
+    return (ca[:, 1] - ca[:, 0]) / length, np.where(state.inertial[rows], 1.0, (cb[:, 1] - cb[:, 0]) / length)

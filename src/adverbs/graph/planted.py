@@ -1,0 +1,82 @@
+"""A verb graph's planted feet: the foot planter of :mod:`adverbs.feet` fed each frame's hold phases, and the feet
+it re-places when a verb playing alone has them somewhere else.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import AdverbsError
+from ..kinematics.floor import Floor
+from ..feet.planter import BALL, FREE, FootPlanter, effector_joints
+from .structure import Graph
+from .player import Frame
+
+
+REPLANT = 0.06  # metres: a held foot this far (across the floor) from where the verb playing has it is re-placed
+REPLANTED = 0.01  # metres: ... until the released foot is this near the verb's again
+
+
+@dataclass
+class GraphFeet:
+    """A graph's foot planter for C creatures (:func:`planter`), and which feet it is moving to a new place.
+
+    A foot held across verbs that stand it in different places (a stand with the feet apart, then a walk)
+    ends up held where the verb playing does not have it, and the leg stretches. Such a foot, once a verb
+    plays alone and it is ``REPLANT`` away, is let go (the planter's inertialized release: it lifts, then
+    glides) and held again once it has come within ``REPLANTED`` of where the verb puts it.
+    """
+
+    planter: FootPlanter
+    replanting: np.ndarray
+
+    @property
+    def mode(self) -> np.ndarray:
+        return self.planter.mode
+
+    @property
+    def turn(self) -> np.ndarray:
+        return self.planter.turn
+
+    @property
+    def tips(self) -> np.ndarray:
+        return self.planter.tips
+
+
+def planter(graph: Graph, creatures: int = 1, floor: Floor | None = None) -> GraphFeet:
+    """The foot planter for ``creatures`` creatures of ``graph``, fed each frame's :attr:`Frame.held` and
+    :attr:`Frame.roll` and :attr:`Frame.swing` by :func:`plant`. Its legs and contact heights are those of the first verb that holds feet;
+    every verb that holds any must hold the same ones."""
+    holding = [v for v in graph.verbs if v.holds]
+    if not holding:
+        raise AdverbsError(f"graph {graph.name!r}: no verb holds a foot: nothing to plant")
+    tips = effector_joints(holding[0])
+    for v in holding[1:]:
+        if effector_joints(v) != tips:
+            names = graph.skeleton.names
+            raise AdverbsError(
+                f"graph {graph.name!r}: verb {v.name!r} holds {[names[j] for j in effector_joints(v)]}, verb "
+                f"{holding[0].name!r} holds {[names[j] for j in tips]}: a graph's verbs must plant the same feet"
+            )
+    return GraphFeet(FootPlanter(holding[0], creatures, floor), np.zeros((creatures, len(tips)), dtype=bool))
+
+
+def plant(feet: GraphFeet, frame: Frame, dt: float, alone: np.ndarray | None = None):
+    """The frame's feet planted: rotations ``(C, J, 4)``, translations ``(C, J, 3)`` and the IK result.
+
+    ``alone (C,)``: which creatures play one verb alone this frame (no blend, no decaying offset); only their
+    feet are re-placed (see :class:`GraphFeet`). Default: none.
+    """
+    p = feet.planter
+    held = frame.held & ~feet.replanting
+    out = p.step(frame.rotations, frame.translations, None, dt, (held, frame.roll, frame.swing))
+    if feet.replanting.any():
+        settled = np.linalg.norm(p._offset(), axis=-1) < REPLANTED
+        feet.replanting &= ~((p.mode == FREE) & settled & (p.since[..., 0] > 0))
+    if alone is not None:
+        away = p.prev_free - p.target
+        gap = np.hypot(away[..., 0], away[..., 2])
+        feet.replanting |= alone[:, None] & (p.mode == BALL) & (p.turn == 0.0) & (gap > REPLANT)
+    return out

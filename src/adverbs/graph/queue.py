@@ -1,0 +1,139 @@
+"""The discrete decisions of a verb graph (§5), taken at the times they happen: a command queues the path with the
+fewest transitions to the verb asked for (:func:`command`); a transition starts when the verb reaches its region
+(:func:`_start`) and ends when ``β`` reaches 1 (:func:`_finish`); a command during an interruptible transition
+turns the blend back (:func:`_reverse`) or lets the verb being entered play on alone from the pose shown
+(:func:`_interrupt`); the latency of a command is noted when its verb plays alone (:func:`_arrived`).
+"""
+
+from __future__ import annotations
+
+
+import numpy as np
+
+from .structure import CommandRefused
+from .clocks import _sampling, duration
+from .state import INERTIAL_HALFLIFE, INTERRUPT_HALFLIFE, MIN_DURATION, _LATE, GraphState, _settle_queue, sync_head
+
+
+def command(state: GraphState, creature: int, verb: str | int, stay: bool = False) -> list[int]:
+    """Ask creature ``creature`` to perform ``verb``: queue the path with the fewest transitions to it.
+
+    ``stay``: once there, keep playing ``verb`` (through its loop; a verb without one goes on by a drawn transition
+    to one that has, and stays there) until the next command; otherwise the queue draws the next transition by
+    likelihood whenever it empties. Returns the transitions queued. During an interruptible transition the creature carries on from the
+    pose it shows (see the module); otherwise the path starts from the verb being entered once it plays.
+    An unknown or unreachable verb raises :class:`CommandRefused` and changes nothing.
+    """
+    c = int(creature)
+    if not 0 <= c < state.creatures:
+        raise CommandRefused(f"no creature {c}: there are {state.creatures}")
+    try:
+        return _command(state, c, verb, stay)
+    finally:
+        sync_head(state, c)
+
+
+def _command(state: GraphState, c: int, verb: str | int, stay: bool) -> list[int]:
+    graph = state.graph
+    target = graph.verb_index(verb)
+    now = int(state.into[c]) if state.active[c] >= 0 else int(state.verb[c])
+    path = graph.path(now, target)  # raises before anything changes
+    state.stay[c] = bool(stay)
+    state.goal[c] = target
+    state.asked[c] = state.time[c]
+    if state.active[c] >= 0 and target != state.into[c] and graph.transitions[state.active[c]].interruptible:
+        if target == state.verb[c] and graph.verbs[target].cyclic and not state.inertial[c]:
+            _reverse(state, c)  # back to the cycle it was leaving, by the same blend
+            state.queue[c] = []
+            return []
+        _interrupt(state, c)
+        state.queue[c] = list(path)
+        first = graph.transitions[path[0]]
+        if not graph.verbs[first.source].cyclic and state.g[c] >= first.source_region[0]:
+            # The way on from the verb being entered is open already: take it at once, from the pose shown.
+            _start(state, c, 0.0, inertial=True)
+            return list(path)
+    state.queue[c] = list(path)
+    if state.active[c] < 0:
+        _settle_queue(state, c)
+        if target == state.verb[c]:
+            _arrived(state, c)
+    return list(state.queue[c])
+
+
+def _reverse(state: GraphState, c: int) -> None:
+    """Turn creature ``c``'s blend back towards the verb it was leaving: both verbs play on from where they are,
+    at the rates they had, and the weight of the one being left climbs back to 1 by the same cosine law."""
+    sa, ea, sb, eb = state.regions[c]
+    back = 1.0 - state.beta[c]
+    a = state.g_into[c] - back * (eb - sb)
+    b = state.g[c] - back * (ea - sa)
+    state.regions[c] = (a, a + (eb - sb), b, b + (ea - sa))
+    state.verb[c], state.into[c] = state.into[c], state.verb[c]
+    state.g[c], state.g_into[c] = state.g_into[c], state.g[c]
+    state.beta[c] = back
+
+
+def _interrupt(state: GraphState, c: int) -> None:
+    """Drop the verb being left: the one being entered plays on alone from the pose now shown."""
+    state.verb[c], state.g[c] = state.into[c], state.g_into[c]
+    state.active[c], state.into[c] = -1, -1
+    state.rebase[c] = True
+    # The rest of the blend is left to the offset's decay, over about the time the blend had still to run.
+    state.offset_halflife[c] = max(INERTIAL_HALFLIFE * state.length[c], INTERRUPT_HALFLIFE)
+    if state.g[c] < 0.0:  # B was playing the end of its previous cycle: it is that cycle's end now
+        state.g[c] += 1.0
+
+
+def _arrived(state: GraphState, c: int) -> None:
+    if state.goal[c] >= 0 and state.verb[c] == state.goal[c] and state.active[c] < 0:
+        state.latencies.append((c, state.graph.verb_names[state.goal[c]], float(state.time[c] - state.asked[c])))
+        state.goal[c] = -1
+
+
+
+def _start(state: GraphState, c: int, late: float, inertial: bool = False) -> None:
+    """Start creature ``c``'s next transition; ``late``: seconds of this frame left after its region began;
+    ``inertial``: blend it inertially whatever the graph says (a command that interrupted a blend)."""
+    graph = state.graph
+    k = state.queue[c].pop(0)
+    sync_head(state, c)
+    t = graph.transitions[k]
+    a, b = graph.verbs[t.source], graph.verbs[t.target]
+    (sa, ea), (sb, eb) = t.source_region, t.target_region
+    g = float(state.g[c])
+    if g > sa + _LATE:  # the region has begun already (a one-shot verb past it, or a loop begun late)
+        if g < ea:
+            sb += (g - sa) / (ea - sa) * (eb - sb)
+            sa = g
+        else:
+            sa = ea = g
+    if b.cyclic and eb >= 1.0:  # B plays the end of its previous cycle
+        sb, eb = sb - 1.0, eb - 1.0
+    row = np.array([c])
+    keys_a = _sampling(state, t.source, 0).keytimes[row]
+    keys_b = _sampling(state, t.target, 1).keytimes[row]
+    length = float(duration((sa, ea), (sb, eb), keys_a, keys_b, a.generic_keytimes, b.generic_keytimes)[0])
+    state.active[c], state.into[c] = k, t.target
+    state.regions[c] = (sa, ea, sb, eb)
+    state.length[c] = max(length, MIN_DURATION)
+    state.beta[c] = min(late / state.length[c], 1.0)
+    state.g_into[c] = sb
+    state.inertial[c] = inertial or t.blend == "inertial"
+    if state.inertial[c]:  # B at once, the pose shown decaying onto it
+        state.rebase[c] = True
+        state.offset_halflife[c] = max(INERTIAL_HALFLIFE * state.length[c], INTERRUPT_HALFLIFE if inertial else 0.0)
+
+
+def _finish(state: GraphState, c: int) -> None:
+    """End creature ``c``'s transition: B plays on alone."""
+    state.verb[c], state.g[c] = state.into[c], state.g_into[c]
+    if state.g[c] < 0.0 and abs(state.g[c]) < 1e-9:
+        state.g[c] = 0.0
+    if not state.graph.verbs[state.verb[c]].cyclic:
+        state.g[c] = min(state.g[c], 1.0)
+    elif state.g[c] >= 1.0:  # a blend turned back ran a cycle past its end: on in the next (the seam is the fit's)
+        state.g[c] -= np.floor(state.g[c])
+    state.active[c], state.into[c] = -1, -1
+    _settle_queue(state, c)
+    _arrived(state, c)

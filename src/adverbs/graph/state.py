@@ -1,0 +1,147 @@
+"""Where C creatures are in a verb graph (§5): :class:`GraphState`, owned by the caller (the graph is shared and
+never changes), made by :func:`new_state`; and what keeps each creature's queue of transitions playable.
+
+Each creature plays one verb instance — a verb and a generic time ``g`` in it — or is in a transition from one
+instance (A) to another (B). Its queue holds the transitions still to take; it never runs dry: when it empties,
+a transition away from the verb playing is drawn by likelihood from the creature's own seeded generator (or,
+told to stay, its loop into itself). A cyclic verb whose next region has already gone by in this cycle first
+takes its loop.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import AdverbsError
+from .structure import Graph
+
+
+INERTIAL_HALFLIFE = 0.2  # of a transition's duration: the half-life of an inertial offset's decay
+INTERRUPT_HALFLIFE = 0.2  # seconds: the shortest half-life of the offset an interruption leaves
+MIN_DURATION = 0.1  # seconds: no transition is shorter
+_LATE = 1e-9  # generic time: a region start this close behind is not yet gone by
+
+
+@dataclass(eq=False)
+class GraphState:
+    """Where C creatures are in a graph; owned by the caller. Make one with :func:`new_state`.
+
+    Per creature: ``points (C, A)`` the graph's adverbs; ``verb``, ``g`` the verb instance playing (A);
+    ``into``, ``g_into`` the one being entered (B, −1 when none); ``active`` the transition under way
+    (−1: none), its ``beta``, ``length`` (seconds) and ``regions (C, 4)`` (A's and B's, generic time, as it
+    started); ``root (C, 3)`` = (x, z, heading); ``queue`` the transitions to come; ``goal`` the verb last
+    asked for until it plays (−1: none) and when it was asked; the decaying offsets of inertial blends
+    and interruptions; the last two frames shown (for the velocities an interruption carries on).
+    """
+
+    graph: Graph
+    points: np.ndarray
+    verb: np.ndarray
+    g: np.ndarray
+    into: np.ndarray
+    g_into: np.ndarray
+    active: np.ndarray
+    beta: np.ndarray
+    length: np.ndarray
+    regions: np.ndarray
+    root: np.ndarray
+    time: np.ndarray
+    queue: list[list[int]]
+    rngs: list[np.random.Generator]
+    goal: np.ndarray
+    asked: np.ndarray
+    rebase: np.ndarray
+    offset_rot: np.ndarray
+    offset_rot_vel: np.ndarray
+    offset_trans: np.ndarray
+    offset_trans_vel: np.ndarray
+    offset_root: np.ndarray
+    offset_since: np.ndarray
+    offset_halflife: np.ndarray
+    shown: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+    shown_before: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+    inertial: np.ndarray | None = None
+    alone: np.ndarray | None = None
+    stay: np.ndarray | None = None
+    held_before: np.ndarray | None = None
+    moving: np.ndarray | None = None
+    fresh: set | None = None
+    regions_seen: dict | None = None
+    latencies: list[tuple[int, str, float]] = field(default_factory=list)
+    caches: dict = field(default_factory=dict)
+    head: np.ndarray | None = None  # (C,) each queue's first transition (−1: empty), kept for the compiled frame
+
+    @property
+    def creatures(self) -> int:
+        return len(self.verb)
+
+    def playing(self, c: int) -> str:
+        """What creature ``c`` is doing, in words."""
+        names = self.graph.verb_names
+        if self.active[c] >= 0:
+            return f"{names[self.verb[c]]} → {names[self.into[c]]} ({self.beta[c]:.0%})"
+        return f"{names[self.verb[c]]} at {self.g[c]:.2f}"
+
+
+def new_state(
+    graph: Graph, creatures: int = 1, seed: int = 0, start: str | int | Sequence[str | int] | None = None,
+    points: np.ndarray | None = None, root: np.ndarray | None = None, stay: bool | np.ndarray = False,
+) -> GraphState:  # fmt: skip
+    """C creatures at the start of ``start`` (default the graph's; or one verb per creature), adverbs ``points (C, A)``
+    (default the graph's defaults), roots ``(C, 3)``; each draws its default transitions from its own generator
+    (``seed`` spawns them), or with ``stay (C,)`` keeps playing its verb (see :func:`command`)."""
+    if isinstance(creatures, bool) or not isinstance(creatures, int | np.integer) or creatures < 1:
+        raise AdverbsError(f"creatures must be a whole number ≥ 1, got {creatures!r}")
+    c = int(creatures)
+    if start is None or isinstance(start, str | int | np.integer):
+        v = np.full(c, graph.start if start is None else graph.verb_index(start))
+    elif len(start) != c:
+        raise AdverbsError(f"start names {len(start)} verbs for {c} creatures")
+    else:
+        v = np.array([graph.start if s is None else graph.verb_index(s) for s in start], dtype=np.int64)
+    a = len(graph.adverb_names)
+    p = np.tile(graph.defaults, (c, 1)) if points is None else np.array(np.broadcast_to(np.asarray(points, dtype=float), (c, a)))
+    if not np.all(np.isfinite(p)):
+        bad = graph.adverb_names[int(np.flatnonzero(~np.isfinite(p).all(axis=0))[0])]
+        raise AdverbsError(f"adverb {bad!r} must be a finite number (got NaN or infinity)")
+    r = np.zeros((c, 3)) if root is None else np.array(np.broadcast_to(np.asarray(root, dtype=float), (c, 3)))
+    j = graph.skeleton.num_joints
+    state = GraphState(
+        graph, p, v, np.zeros(c), np.full(c, -1), np.zeros(c), np.full(c, -1), np.zeros(c), np.zeros(c),
+        np.zeros((c, 4)), r, np.zeros(c), [[] for _ in range(c)],
+        [np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(c)], np.full(c, -1), np.zeros(c),
+        np.zeros(c, dtype=bool), np.zeros((c, j, 3)), np.zeros((c, j, 3)), np.zeros((c, j, 3)), np.zeros((c, j, 3)),
+        np.zeros((c, 3)), np.full(c, 1e9), np.full(c, INTERRUPT_HALFLIFE),
+    )  # fmt: skip
+    state.inertial = np.zeros(c, dtype=bool)
+    state.stay = np.array(np.broadcast_to(np.asarray(stay, dtype=bool), (c,)))
+    state.head = np.full(c, -1, dtype=np.int64)
+    for k in range(c):
+        _settle_queue(state, k)
+    return state
+
+
+
+def _settle_queue(state: GraphState, c: int, g: float | None = None) -> None:
+    """Make creature ``c``'s queue playable from where it is (its generic time ``g``, default now): never empty, and
+    a cyclic verb whose next region has gone by in this cycle loops into itself first."""
+    graph = state.graph
+    q = state.queue[c]
+    v = int(state.verb[c])
+    loop = graph.loop(v)
+    if not q:
+        q.append(loop if state.stay[c] and loop is not None else graph.draw(v, state.rngs[c]))
+    first = graph.transitions[q[0]]
+    g = state.g[c] if g is None else g
+    if graph.verbs[v].cyclic and first.source_region[0] < g - _LATE and loop is not None and q[0] != loop:
+        q.insert(0, loop)
+    sync_head(state, c)
+
+
+def sync_head(state: GraphState, c: int) -> None:
+    """Note creature ``c``'s first queued transition in :attr:`GraphState.head` (−1 when the queue is empty)."""
+    if state.head is not None:
+        state.head[c] = state.queue[c][0] if state.queue[c] else -1
