@@ -46,6 +46,7 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/verbs.py
 	$(BIN)/python benchmarks/feet.py
 	$(BIN)/python benchmarks/graph.py
+	$(BIN)/python benchmarks/crowd.py
 	$(BIN)/python benchmarks/runtime.py
 	$(BIN)/python benchmarks/viewer.py
 
