@@ -82,8 +82,11 @@ def test_play_writes_the_planted_performance(tmp_path):
     assert r.returncode == 0, r.stderr
     clip = read_bvh(out)
     assert clip.num_frames == 180 and clip.fps == 30
-    line = r.stdout.strip()
-    assert "\n" not in line and line.startswith(f"wrote {out}: 180 frames at 30 fps = 6.00 s; ")
+    line, *cues = r.stdout.strip().splitlines()  # one line of what played, then every cue and what became of it
+    assert line.startswith(f"wrote {out}: 180 frames at 30 fps = 6.00 s; ")
+    assert cues[0] == "cues:" and len(cues) == 3, cues
+    assert re.match(r"\s+0\.50 s  run: run playing alone at [\d.]+ s \([\d.]+ s later\)$", cues[1]), cues
+    assert re.match(r"\s+4\.00 s  walk: walk (playing alone at [\d.]+ s|playing already)", cues[2]), cues
     assert re.search(r"played walk → .*run → .*walk", line), line
     latencies = re.search(r"command latencies: run ([\d.]+) s, walk ([\d.]+) s;", line)
     assert latencies, line
@@ -125,3 +128,27 @@ def test_describe_says_what_the_start_verb_cannot_reach(tmp_path):
     assert r.returncode == 0, r.stderr
     assert "warning: run cannot be reached from the start verb walk" in r.stdout
     assert re.search(r"from walk reaches walk \(not run\)", r.stdout), r.stdout
+
+
+def test_play_reports_every_cue_none_dropped_silently():
+    """Each cue of ``graph --play`` is reported with its time and what became of it: played (when), refused (why),
+    superseded by a later cue before its verb played, or after the last frame."""
+    import warnings
+
+    from adverbs import load_graph, perform
+    from adverbs.errors import AdverbsWarning
+    from adverbs.graph import Cue
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", AdverbsWarning)
+        graph = load_graph(CMU_GRAPH)
+    cues = [Cue(0.5, "run"), Cue(0.6, "walk"), Cue(1.0, "fly"), Cue(2.0, adverbs={"turn": 20.0}), Cue(9.0, "run")]
+    perf = perform(graph, cues, seconds=4.0, seed=1)
+    assert [t for t, _, _ in perf.cues] == [0.5, 0.6, 1.0, 2.0, 9.0]  # every cue, in time order
+    outcome = {t: o for t, _, o in perf.cues}
+    assert outcome[0.5].startswith("superseded by the cue at 0.6 s") or "playing" in outcome[0.5]
+    assert outcome[0.6].startswith("walk playing")
+    assert outcome[1.0].startswith("refused: ") and "fly" in outcome[1.0]
+    assert outcome[2.0] == "adverbs set"
+    assert outcome[9.0].startswith("not played: after the last frame")
+    assert len(perf.cue_lines()) == len(cues)

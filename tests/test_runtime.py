@@ -330,3 +330,18 @@ def test_feet_planting_is_switched_by_an_event(cmu):
     np.testing.assert_array_equal(a[30:59], b[30:59])  # frames at 1.0 .. 1.97 s: the verb alone
     assert not np.allclose(a[60:], b[60:], atol=1e-6)
     assert [e["on"] for e in sim.log if e["command"] == "plant"] == [False, True]
+
+
+def test_a_command_after_the_end_of_a_run_is_reported_not_dropped(cmu, tmp_path):
+    sim = Simulation(cmu, fps=30.0)
+    c = sim.add_creature()
+    c.perform("run", at=0.5)
+    c.perform("walk", at=50.0)  # the run below ends at 2 s
+    sim.run(2.0)
+    arrived = [e for e in sim.log if e["command"] == "arrived"]
+    assert arrived and arrived[0]["verb"] == "run" and arrived[0]["time"] >= 0.5  # when the run played alone
+    report = sim.report()
+    assert [(e["time"], e["verb"], e["status"]) for e in report["not_run"]] == [(50.0, "walk", "not run")]
+    sim.run(49.0)  # run on past it: it runs, and is no longer reported as not run
+    assert sim.report()["not_run"] == []
+    assert any(e["command"] == "perform" and e["verb"] == "walk" and e["time"] == 50.0 for e in sim.log)

@@ -4,6 +4,7 @@ Blender's own importer where Blender is installed."""
 from __future__ import annotations
 
 import json
+import re
 import warnings
 from pathlib import Path
 
@@ -107,7 +108,9 @@ def test_cli_run_and_render(tmp_path, capsys):
         warnings.simplefilter("ignore", AdverbsWarning)
         assert main(["run", str(ROOT / "graphs" / "cmu.toml"), "--script", str(script), "--out", str(tmp_path / "o"), "--seed", "2"]) == 0
     out = capsys.readouterr()
-    assert "creature1 (cmu): walk → run;" in out.out and "refused at 1 s: graph 'cmu' has no verb 'fly'" in out.out
+    assert "creature1 (cmu): walk → run;" in out.out
+    assert re.search(r"0\.50 s  run: run playing alone at [\d.]+ s", out.out), out.out  # every cue, and what became of it
+    assert "1.00 s  fly: refused: graph 'cmu' has no verb 'fly'" in out.out
     assert read_bvh(tmp_path / "o" / "creature1.bvh").num_frames == 60
     assert main(["render", str(tmp_path / "o" / "creature1.bvh"), "-o", str(tmp_path / "c.png"), "--panels", "3", "--camera", "side"]) == 0
     assert (tmp_path / "c.png").exists()
@@ -132,7 +135,9 @@ def test_demo_writes_its_files(tmp_path, capsys):
     played = report["summary"][0]
     for verb in ("walk", "run", "reach", "bow", "idle"):
         assert verb in played
-    assert "cmu (cmu): " in report["summary"][1] and "run" in report["summary"][1]
+    cmu = [line for line in report["summary"] if line.startswith("cmu (cmu): ")]
+    assert len(cmu) == 1 and "run" in cmu[0]
+    assert any("playing alone at" in line for line in report["summary"])  # each cue and what became of it
     assert len(_frames(tmp_path / "demo.gif")) == 340  # 33.97 s at 10 fps
 
 

@@ -548,6 +548,10 @@ def _graph(args: argparse.Namespace) -> None:
             print(f"adverbs: warning: {warning}", file=sys.stderr)
         write_motion(perf.planted, args.output, portable=args.portable)
         print(_play_line(graph, perf, floor, args.output))
+        if perf.cues:
+            print("cues:")
+            for line in perf.cue_lines():
+                print("  " + line)
     else:
         d = graph.describe()
         if args.json:

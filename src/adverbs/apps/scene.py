@@ -185,10 +185,40 @@ def summary(sim: Simulation) -> list[str]:
             elif e["status"] == "refused":
                 refused.append(f"{e['time']:g} s: {e['reason']}")
         lines.append(f"{c.name} ({c.graph.name}): {' → '.join(verbs) or c.verb}; {transitions} transitions, {sim.frames} frames")
-        lines += [f"  refused at {r}" for r in refused]
+        lines += [f"  {line}" for line in cue_lines(sim, c.name)]
     rate = sim.frames / sim.wall_seconds if sim.wall_seconds else float("nan")
     lines.append(f"{sim.frames} frames of {sim.time:.1f} s at {sim.fps:g} fps, computed at {rate:.0f} frames/s ({sim.clock.__class__.__name__})")
     return lines
+
+
+def cue_lines(sim: Simulation, creature: str) -> list[str]:
+    """Every command given to ``creature``, a line each: its time, what it asked, what became of it (refused, adverbs
+    set, its verb playing alone and when, superseded by a later one, not there by the end, or after the end)."""
+    mine = [e for e in sim.log if e["creature"] == creature]
+    out = []
+    for i, e in enumerate(mine):
+        if e["command"] not in ("perform", "adverbs"):
+            continue
+        what = e["verb"] if e["command"] == "perform" else ", ".join(f"{k}={v:g}" for k, v in e["adverbs"].items())
+        if e["status"] == "refused":
+            outcome = f"refused: {e['reason']}"
+        elif e["command"] == "adverbs":
+            outcome = "adverbs eased in" if e.get("over") else "adverbs set"
+        else:
+            outcome = f"{e['verb']} not playing alone by the end"
+            for later in mine[i + 1 :]:
+                if later["command"] == "perform" and later["status"] == "ran":
+                    outcome = f"superseded by the command at {later['time']:g} s before {e['verb']} played"
+                    break
+                if later["command"] == "arrived" and later["verb"] == e["verb"]:
+                    outcome = f"{e['verb']} playing alone at {later['time']:.2f} s ({later['time'] - e['time']:.2f} s later)"
+                    break
+        out.append(f"{e['time']:7.2f} s  {what}: {outcome}")
+    for e in sim.not_run():
+        if e["creature"] == creature:
+            what = e.get("verb") or ", ".join(f"{k}={v:g}" for k, v in e.get("adverbs", {}).items())
+            out.append(f"{e['time']:7.2f} s  {what}: not run: {e['reason']}")
+    return out
 
 
 def _size(text: str) -> tuple[int, int]:

@@ -8,7 +8,7 @@ the motion before and after planting, what was playing at every frame, and how p
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -54,6 +54,11 @@ class Performance:
     report: PlantingReport
     refused: list[tuple[float, str]]
     state: GraphState
+    cues: list[tuple[float, str, str]] = field(default_factory=list)  # (time, the cue in words, what became of it)
+
+    def cue_lines(self) -> list[str]:
+        """Every cue of the script, a line each: its time, what it asked, what became of it."""
+        return [f"{t:7.2f} s  {what}: {outcome}" for t, what, outcome in self.cues]
 
 
 def perform(
@@ -103,6 +108,8 @@ def perform(
     legs = len(feet.tips) if feet is not None else 0
     modes, turns, drops = np.zeros((frames, legs), dtype=np.int64), np.zeros((frames, legs)), np.zeros(frames)
     refused: list[tuple[float, str]] = []
+    outcomes: list[list] = []  # per cue: [time, words, what became of it]
+    waiting: int | None = None  # the cue whose verb has not played alone yet
     unreachable, miss = 0, 0.0
     k = 0
     for f in range(frames):
@@ -110,14 +117,26 @@ def perform(
         while k < len(cues) and cues[k].time <= now + 1e-9:
             cue = cues[k]
             k += 1
+            outcomes.append([cue.time, _words(cue), "ran"])
             try:
                 if cue.adverbs:
                     p = graph.point({**dict(zip(graph.adverb_names, state.points[0])), **cue.adverbs})
                     state.points[0] = graph.check_point(p)
+                    outcomes[-1][2] = "adverbs set"
                 if cue.verb is not None:
+                    arrived = len(state.latencies)
                     command(state, 0, cue.verb)
+                    if waiting is not None:
+                        outcomes[waiting][2] = f"superseded by the cue at {cue.time:g} s before {outcomes[waiting][1]} played"
+                    waiting = len(outcomes) - 1
+                    outcomes[waiting][2] = "queued"
+                    if len(state.latencies) > arrived:  # playing it already
+                        outcomes[waiting][2] = f"{cue.verb} playing already (at {now:.2f} s)"
+                        waiting = None
             except (CommandRefused, AdverbsError) as e:
                 refused.append((cue.time, str(e)))
+                outcomes[-1][2] = f"refused: {e}"
+        before = len(state.latencies)
         frame = first_frame(state) if from_start and f == 0 else step(state, dt)
         free_rot[f], free_trans[f] = frame.rotations[0], frame.translations[0]
         if feet is not None:
@@ -132,11 +151,26 @@ def perform(
             rot[f], trans[f] = free_rot[f], free_trans[f]
         playing.append(state.playing(0))
         active[f], verb[f] = state.active[0], state.verb[0]
+        if waiting is not None and len(state.latencies) > before:
+            _, name, latency = state.latencies[-1]
+            outcomes[waiting][2] = f"{name} playing alone at {outcomes[waiting][0] + latency:.2f} s ({latency:.2f} s later)"
+            waiting = None
+    if waiting is not None:
+        outcomes[waiting][2] = f"{outcomes[waiting][1]} not playing alone by the end ({(frames - int(from_start)) * dt:.2f} s)"
+    end = (frames - 1 - int(from_start)) * dt
+    outcomes += [[c.time, _words(c), f"not played: after the last frame ({end:.2f} s)"] for c in cues[k:]]
     report = report_of_modes(modes, turns, drops, unreachable, miss)
     name = graph.name
     planted = Clip(graph.skeleton, rot, trans, fps, name=name)
     free = Clip(graph.skeleton, free_rot, free_trans, fps, name=name)
-    return Performance(planted, free, playing, active, verb, report, refused, state)
+    return Performance(planted, free, playing, active, verb, report, refused, state, [tuple(o) for o in outcomes])
+
+
+def _words(cue: Cue) -> str:
+    """A cue in words: the verb, the adverbs, or both."""
+    parts = [] if cue.verb is None else [str(cue.verb)]
+    parts += [f"{k}={v:g}" for k, v in (cue.adverbs or {}).items()]
+    return ", ".join(parts) or "(nothing)"
 
 
 def repeat(

@@ -83,6 +83,7 @@ class _Group:
     recorded: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list)
     held: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list)  # the planter's (mode, turn) per frame
     shown_active: np.ndarray | None = None  # the transition each creature was in at the last frame
+    arrived: int = 0  # how many of the state's latencies the log has
 
     @property
     def size(self) -> int:
@@ -228,6 +229,8 @@ class Simulation:
         self._cost = 0.0
         self._started = False
         self._pending: list[tuple[Creature, str, bool]] = []
+        self._scheduled: dict[int, dict] = {}  # commands given a time still to come, in the order given
+        self._scheduled_count = 0
         self._on_frame: Callable | None = None
         self._on_render: Callable | None = None
 
@@ -325,7 +328,17 @@ class Simulation:
         at = float(at)
         if not math.isfinite(at) or at < self.time:
             raise AdverbsError(f"creature {creature.name!r}: a command's time must be a number ≥ now ({self.time:g} s), got {at}")
-        self.queue.push(at, lambda t: self._do(creature, kind, args, t, source), NORMAL, f"{kind} {creature.name}")
+        key = self._scheduled_count
+        self._scheduled_count += 1
+        self._scheduled[key] = {"time": round(at, 9), "creature": creature.name, "command": kind, **_jsonable(args)}
+        if source:
+            self._scheduled[key]["source"] = source
+
+        def due(t: float) -> None:
+            self._scheduled.pop(key, None)
+            self._do(creature, kind, args, t, source)
+
+        self.queue.push(at, due, NORMAL, f"{kind} {creature.name}")
 
     def _do(self, creature: Creature, kind: str, args: dict, t: float, source: str, raise_refused: bool = False) -> None:
         entry = {"time": round(float(t), 9), "creature": creature.name, "command": kind, **_jsonable(args)}
@@ -503,6 +516,12 @@ class Simulation:
             else:
                 g.rotations, g.translations = frame.rotations, frame.translations
         g.shown_active = s.active.copy()
+        for c, name, seconds in s.latencies[g.arrived :]:  # commands whose verb now plays alone
+            self.log.append({
+                "time": round(t, 9), "creature": g.names[c], "command": "arrived", "verb": name,
+                "seconds": round(float(seconds), 6), "status": "ran",
+            })  # fmt: skip
+        g.arrived = len(s.latencies)
         for c in np.flatnonzero((s.active != before) & (s.active >= 0)):
             tr = g.graph.transitions[s.active[c]]
             names = g.graph.verb_names
@@ -575,6 +594,13 @@ class Simulation:
         n = len(creature._group.recorded)
         return round(float(self.frame_times[-n]), 9) if n else None
 
+    def not_run(self) -> list[dict]:
+        """The commands given a time the run has not reached (scheduled past its end), each saying so."""
+        return [
+            {**e, "status": "not run", "reason": f"after the end of the run ({self.time:g} s)"}
+            for e in self._scheduled.values()
+        ]
+
     def report(self) -> dict:
         """What ran: the frame rate, the creatures, the commands and transitions (the log), and skipped events."""
         frames = np.asarray(self.frame_times)
@@ -592,6 +618,7 @@ class Simulation:
                 for c in self._creatures
             ],
             "events": self.log,
+            "not_run": self.not_run(),
             "skipped": [{"time": t, "event": n} for t, n in self.processed.skipped],
         }
 
