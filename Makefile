@@ -48,6 +48,7 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/graph.py
 	$(BIN)/python benchmarks/crowd.py
 	$(BIN)/python benchmarks/runtime.py
+	$(BIN)/python benchmarks/long_run.py
 	$(BIN)/python benchmarks/viewer.py
 
 clean:

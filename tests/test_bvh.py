@@ -313,3 +313,17 @@ def test_mutated_files_read_or_raise_bvh_error(path):
         except BVHError:
             continue
         assert np.all(np.isfinite(clip.rotations)) and np.all(np.isfinite(clip.translations))
+
+
+def test_write_bvh_streams_the_same_bytes_format_bvh_gives(tmp_path, cmu_walk):
+    """``write_bvh`` writes the frames a block at a time (a long clip's text is never held whole): the file is
+    byte for byte ``format_bvh``'s text, across block boundaries too."""
+    from adverbs.io.bvh import WRITE_BLOCK, format_bvh
+
+    n = 2 * WRITE_BLOCK + 37
+    reps = -(-n // cmu_walk.num_frames)
+    long = cmu_walk.replace(
+        rotations=np.tile(cmu_walk.rotations, (reps, 1, 1))[:n], translations=np.tile(cmu_walk.translations, (reps, 1, 1))[:n]
+    )
+    write_bvh(long, tmp_path / "long.bvh")
+    assert (tmp_path / "long.bvh").read_bytes() == format_bvh(long).encode("utf-8")

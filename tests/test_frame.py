@@ -13,6 +13,7 @@ import pytest
 from adverbs import AdverbsError, load_graph
 from adverbs.errors import AdverbsWarning
 from adverbs.graph.planted import planter
+from adverbs.graph.player import step
 from adverbs.graph.queue import command
 from adverbs.graph.state import new_state
 from adverbs.runtime import Simulation
@@ -52,10 +53,9 @@ def _recorded(sim: Simulation) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]
     """Every group's recorded rotations and translations ``(F, C, J, ·)`` and the planter's modes ``(F, C, L)``."""
     out = []
     for g in sim._groups.values():
-        rot = np.stack([r for r, _ in g.recorded])
-        trans = np.stack([t for _, t in g.recorded])
-        modes = np.stack([m for m, _ in g.held]) if g.held else np.zeros(0)
-        out.append((rot, trans, modes))
+        poses = [g.spool.creature(i) for i in range(g.size)]
+        modes = [g.spool.held(i)[0] for i in range(g.size)]
+        out.append((np.stack([r for r, _ in poses], 1), np.stack([t for _, t in poses], 1), np.stack(modes, 1)))
     return out
 
 
@@ -134,3 +134,49 @@ def test_a_bad_step_is_refused_and_changes_nothing(graphs):
         with pytest.raises(AdverbsError, match="dt"):
             fp.step(dt)
     np.testing.assert_array_equal(state.g, g)
+
+
+def test_planting_switched_off_and_on_again_plants_with_the_new_planter(graphs):
+    """``Simulation.plant`` starts the planter afresh when switched back on: the pass plants with that one too."""
+    runs = []
+    for compiled in (False, True):
+        sim = Simulation(graphs["cmu"], fps=30.0, seed=1, compiled=compiled)
+        for k in range(2):
+            sim.add_creature(at=(2.0 * k, 0.0)).perform("run", at=0.5 + k)
+        sim.set_plant(False, at=2.0)
+        sim.set_plant(True, at=3.0)
+        sim.run(6.0)
+        runs.append(sim)
+    _assert_same(*runs)
+    g = next(iter(runs[1]._groups.values()))
+    assert g.frame.feet is g.feet
+
+
+def test_caches_brought_to_other_points_between_frames_are_brought_back(graphs):
+    """A command's own transition (an inertial start, in Python between frames) brings the verbs' caches to the
+    adverbs of that moment; changed back before the next frame, the pass must not keep those rows."""
+    runs = []
+    for compiled in (False, True):
+        sim = Simulation(graphs["bandai"], fps=30.0, seed=0, compiled=compiled)
+        c = sim.add_creature(verb="reach")
+        c.set_adverbs({"valence": 0.9}, over=0.0, at=1.71)
+        c.perform("walk", at=1.715)
+        c.set_adverbs({"valence": 0.0}, over=0.0, at=1.72)
+        sim.run(4.0)
+        runs.append(sim)
+    _assert_same(*runs)
+
+
+def test_a_verb_no_creature_plays_may_refuse_their_adverbs(graphs):
+    """Far adverbs that only an unplayed verb refuses (the run, at run_speed=100, while every creature walks) stop
+    neither path: the pass leaves that verb's rows until a creature plays it, as the reference does."""
+    graph = graphs["cmu"]
+    p = graph.defaults.copy()
+    p[graph.adverb_names.index("run_speed")] = 100.0
+    reference, compiled = (new_state(graph, 2, 0, "walk", points=p, stay=True) for _ in range(2))
+    fp = FramePass(compiled)
+    for _ in range(30):
+        plant_ref = step(reference, 1 / 30)
+        rot, trans = fp.step(1 / 30, plant=False)
+        np.testing.assert_allclose(rot, plant_ref.rotations, rtol=0, atol=ATOL)
+        np.testing.assert_allclose(trans, plant_ref.translations, rtol=0, atol=ATOL)

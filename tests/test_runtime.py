@@ -345,3 +345,32 @@ def test_a_command_after_the_end_of_a_run_is_reported_not_dropped(cmu, tmp_path)
     sim.run(49.0)  # run on past it: it runs, and is no longer reported as not run
     assert sim.report()["not_run"] == []
     assert any(e["command"] == "perform" and e["verb"] == "walk" and e["time"] == 50.0 for e in sim.log)
+
+
+def test_a_long_recording_is_kept_on_disk_not_in_memory(cmu):
+    """Recorded frames go to disk as the run goes (runtime.recording): a minute more of 20 creatures grows the
+    Python heap by well under what keeping the frames would take (20 x 19 joints x 7 x 8 bytes a frame: 38 MB a
+    minute at 30 fps), and the clips read back are the frames shown."""
+    import tracemalloc
+
+    sim = Simulation(cmu, fps=30.0, seed=2)
+    crowd = [sim.add_creature(at=(2.0 * k, 0.0)) for k in range(20)]
+    for k, c in enumerate(crowd):
+        c.perform("run" if k % 2 else "walk", at=1.0 + 0.1 * k)
+    shown = []
+    sim.run(5.0, on_frame=lambda s: shown.append(s._groups[next(iter(s._groups))].rotations[3].copy()))
+    tracemalloc.start()
+    try:
+        before = tracemalloc.get_traced_memory()[0]
+        sim.run(60.0)
+        grown = tracemalloc.get_traced_memory()[0] - before
+    finally:
+        tracemalloc.stop()
+    kept = 60 * 30 * 20 * cmu.skeleton.num_joints * 7 * 8
+    assert grown < 0.1 * kept, (grown, kept)
+    clip = crowd[3].clip()
+    assert clip.num_frames == sim.frames
+    np.testing.assert_array_equal(clip.rotations[: len(shown)], np.stack(shown))
+    folder = sim._folder.path
+    sim.close()
+    assert not folder.exists()

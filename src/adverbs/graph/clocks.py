@@ -67,7 +67,10 @@ def _sampling(state: GraphState, v: int, slot: int) -> SamplingState:
     if s is None:
         s = state.caches[key] = SamplingState.new(verb, state.creatures)
     if state.fresh is None or key not in state.fresh:  # within a step the adverbs hold still: once is enough
-        if s.update(verb, graph.verb_points(v, state.points)) and verb.holds:
+        changed = s.update(verb, graph.verb_points(v, state.points))
+        if changed:
+            state.cache_version += 1
+        if changed and verb.holds:
             times = verb.hold_times(s.weights)  # when each creature's feet land and lift
             held = state.caches.get((key, "holds"))
             if held is None:

@@ -73,6 +73,7 @@ class GraphState:
     latencies: list[tuple[int, str, float]] = field(default_factory=list)
     caches: dict = field(default_factory=dict)
     head: np.ndarray | None = None  # (C,) each queue's first transition (−1: empty), kept for the compiled frame
+    cache_version: int = 0  # counts the times a verb's cached rows changed (clocks._sampling), for the compiled frame
 
     @property
     def creatures(self) -> int:

@@ -42,7 +42,7 @@ from ..kinematics import quat
 from ..kinematics.skeleton import POSITION_CHANNELS, ROTATION_CHANNELS, Skeleton
 from ..limits import LIMITS, LimitError, check_frames, check_joints
 from ..motion.clip import Clip
-from .files import write_atomic
+from .files import atomic_path
 
 UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254, "ft": 0.3048}
 _CHANNELS = POSITION_CHANNELS + ROTATION_CHANNELS
@@ -52,6 +52,7 @@ _WHITESPACE = " \t\v\f\x1c\x1d\x1e\x1f"  # what separates words (str.split's whi
 _SPACES = re.compile(f"[{re.escape(_WHITESPACE)}]+")
 _FRAME_COUNT = re.compile(r"\+?[0-9]+")
 READ_COST = 8  # bytes of memory per byte of a file while it is read (bytes, text, lines, words, numbers)
+WRITE_BLOCK = 4096  # frames formatted and written at a time
 WRITE_INDENT = 32  # the writer indents a joint by its depth, up to this many tabs (a deep chain stays linear)
 
 
@@ -475,15 +476,19 @@ def write_bvh(clip: Clip, path: str | Path, precision: int = 9, portable: bool =
     position channels on the root only, which every reader reads alike (see :mod:`adverbs.io.portable`).
 
     The file is written whole or not at all: a failed write leaves what was at ``path`` as it was. A clip whose file
-    :func:`read_bvh` would refuse is refused (see :func:`format_bvh`), naming ``path``, and nothing is written.
+    :func:`read_bvh` would refuse is refused (see :func:`format_bvh`), naming ``path``, and nothing is written. The
+    frames are written a block at a time (the text of a long clip is never held whole in memory).
     """
     try:
-        text = format_bvh(clip, precision, portable)
+        header, values, fmt = _bvh_parts(clip, precision, portable)
     except LimitError as e:
         raise LimitError(f"{path}: {e}") from None
     except AdverbsError as e:
         raise AdverbsError(f"{path}: {e}") from None
-    write_atomic(path, text.encode("utf-8"))
+    with atomic_path(path) as tmp, open(tmp, "x", encoding="utf-8", newline="\n") as f:
+        f.write(header)
+        for start in range(0, len(values), WRITE_BLOCK):
+            np.savetxt(f, values[start : start + WRITE_BLOCK], fmt=fmt, delimiter=" ")
 
 
 def format_bvh(clip: Clip, precision: int = 9, portable: bool = False) -> str:
@@ -497,6 +502,16 @@ def format_bvh(clip: Clip, precision: int = 9, portable: bool = False) -> str:
     of whitespace, a line break, ``{`` as a word), a channel that is not a BVH channel, no frames or no channels,
     and a clip past the limits of :mod:`adverbs.limits`.
     """
+    header, values, fmt = _bvh_parts(clip, precision, portable)
+    out = io.StringIO()
+    out.write(header)
+    np.savetxt(out, values, fmt=fmt, delimiter=" ")
+    return out.getvalue()
+
+
+def _bvh_parts(clip: Clip, precision: int, portable: bool) -> tuple[str, np.ndarray, str]:
+    """:func:`format_bvh`'s work: the text up to the first frame, the channel values ``(F, C)`` in the file's column
+    order, and the number format."""
     if isinstance(precision, bool) or not isinstance(precision, int | np.integer) or not 1 <= precision <= 17:
         raise AdverbsError(f"precision must be a whole number of significant digits from 1 to 17, got {precision!r}")
     if portable:
@@ -540,8 +555,7 @@ def format_bvh(clip: Clip, precision: int = 9, portable: bool = False) -> str:
         starts = np.concatenate([[0], np.cumsum([len(c) for c in skel.channels])])
         values = values[:, np.concatenate([np.arange(starts[j], starts[j + 1]) for j in written])]
     out.write(f"MOTION\nFrames: {clip.num_frames}\nFrame Time: {frame_time}\n")
-    np.savetxt(out, values, fmt=fmt, delimiter=" ")
-    return out.getvalue()
+    return out.getvalue(), values, fmt
 
 
 def name_problem(name: object) -> str | None:

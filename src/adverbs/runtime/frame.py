@@ -141,20 +141,20 @@ class FramePass:
 
     def __init__(self, state: GraphState, feet: GraphFeet | None = None, threads: int | None = None):
         graph = state.graph
-        self.state, self.feet, self.graph = state, feet, graph
+        self.state, self.graph = state, graph
         self.tables = tables(graph)
-        if feet is not None and feet.planter._compiled is None:
-            raise AdverbsError("the compiled frame plants on flat floors, slopes and height maps; this floor is a function")
+        self.use_feet(feet)  # refused before anything is made if the floor is one the kernel cannot take
         if state.head is None:
             state.head = np.full(state.creatures, -1, dtype=np.int64)
         for c in range(state.creatures):
             sync_head(state, c)
         self._pool = Threads(threads)
         self._kernel, self._planted_kernel = Entry(kernel.frame), Entry(kernel.frame_planted)
-        self._caches = self._packed_caches()
         self._pairs = 2 * len(graph.verbs)
         self._seen = state.points.copy()  # the adverb points the caches were last brought up to date for
-        self._fresh = {(v, slot) for v in range(len(graph.verbs)) for slot in (0, 1)}
+        self._fresh: set[tuple[int, int]] = set()  # the (verb, slot) caches up to date at those points
+        self._version = 0  # state.cache_version when they were
+        self._caches = self._packed_caches()
         c, j, n_l = state.creatures, graph.skeleton.num_joints, len(graph.feet)
         self._poses = [(np.zeros((c, j, 4)), np.zeros((c, j, 3)), np.zeros((c, 3))) for _ in range(3)]
         self._turns = (0, 1, 2)  # which of the pose buffers is written next, shown, and shown before
@@ -169,9 +169,15 @@ class FramePass:
         self.events = np.zeros(c, dtype=np.int64)
         self.g_settle = np.zeros(c)
         self.constants = _constants()
+
+    def use_feet(self, feet: GraphFeet | None) -> None:
+        """Plant with ``feet`` from the next step on (a planter started afresh, as ``Simulation.plant`` makes one)."""
+        if feet is not None and feet.planter._compiled is None:
+            raise AdverbsError("the compiled frame plants on flat floors, slopes and height maps; this floor is a function")
+        self.feet = feet
+        self._feet_key = self._feet_boxed = None
         if feet is not None:
-            comp = feet.planter._compiled
-            n = len(comp.tips)
+            c, j, n = self.state.creatures, self.graph.skeleton.num_joints, len(feet.planter._compiled.tips)
             self._inside = np.zeros((c, n), dtype=bool)
             self._ik_out = (np.empty((c, j, 3)), np.empty((c, j, 4)), np.empty((c, n, 3)), np.empty((c, n, 3, 3)))
             self._drop, self._residual = np.empty(c), np.empty((c, n))
@@ -205,7 +211,12 @@ class FramePass:
                     held[...] = state.caches[(v, slot), "holds"]
                 state.caches[v, slot] = new
                 state.caches[(v, slot), "holds"] = held
-                clocks._sampling(state, v, slot)
+                try:
+                    clocks._sampling(state, v, slot)
+                except AdverbsError:  # a point this verb refuses, where no creature plays it: left until one does
+                    continue
+                self._fresh.add((v, slot))
+        self._version = state.cache_version
         return tables, offsets
 
     def _refresh(self) -> None:
@@ -217,9 +228,9 @@ class FramePass:
         state = self.state
         points = state.points
         same = self._seen is not None and self._seen.shape == points.shape and np.array_equal(self._seen, points)
-        if same and len(self._fresh) == self._pairs:
+        if same and len(self._fresh) == self._pairs and state.cache_version == self._version:
             return
-        if not same:
+        if not same or state.cache_version != self._version:  # moved, or rows brought to other points in between
             self._fresh.clear()
             self._seen = points.copy()
         for pair in self._needed():
@@ -235,6 +246,7 @@ class FramePass:
                         except AdverbsError:  # refused where no creature plays it: left until one does
                             continue
                         self._fresh.add((v, slot))
+        self._version = state.cache_version
 
     def _needed(self) -> list[tuple[int, int]]:
         """The (verb, slot) caches this frame reads (see :meth:`_refresh`)."""

@@ -48,6 +48,7 @@ from ..motion.clip import Clip
 from ..feet.offline import PlantingReport, report_of_modes
 from .events import NORMAL, SYNC, EventQueue, Processed, VirtualClock, WallClock, run_events
 from .frame import FramePass, supported
+from .recording import Folder, Spool
 
 EASE = 0.5  # seconds: how long an adverb change takes by default
 MARGIN = 1.25  # the frame interval on the wall clock is at least this many times the measured render cost
@@ -80,8 +81,7 @@ class _Group:
     ease_over: np.ndarray | None = None
     rotations: np.ndarray | None = None
     translations: np.ndarray | None = None
-    recorded: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list)
-    held: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list)  # the planter's (mode, turn) per frame
+    spool: Spool | None = None  # the frames shown, kept on disk (recording.Spool), and the planter's modes and turns
     shown_active: np.ndarray | None = None  # the transition each creature was in at the last frame
     arrived: int = 0  # how many of the state's latencies the log has
 
@@ -230,6 +230,7 @@ class Simulation:
         self._started = False
         self._pending: list[tuple[Creature, str, bool]] = []
         self._scheduled: dict[int, dict] = {}  # commands given a time still to come, in the order given
+        self._folder: Folder | None = None  # where the recording is kept (made with the first frame recorded)
         self._scheduled_count = 0
         self._on_frame: Callable | None = None
         self._on_render: Callable | None = None
@@ -300,6 +301,8 @@ class Simulation:
         if on and not self._plant:
             for g in self._groups.values():
                 g.feet = None if g.feet is None else planter(g.graph, g.size, self.floor)
+                if g.frame is not None:
+                    g.frame.use_feet(g.feet)  # the pass plants with the new planter too
         self._plant = bool(on)
 
     def set_plant(self, on: bool, at: float | None = None) -> None:
@@ -434,9 +437,10 @@ class Simulation:
         seconds = float(seconds)
         if not (math.isfinite(seconds) and 0 < seconds <= MAX_SECONDS):
             raise AdverbsError(f"seconds must be a number in (0, {MAX_SECONDS:g}], got {seconds}")
-        if self.record:  # every creature's frames are kept: refused now rather than out of memory later
+        if self.record:  # every frame is kept (on disk), each creature's clip read back alone: refused now if too long
             frames = len(self.frame_times) + seconds * self.fps
-            check_frames(frames, sum(g.graph.skeleton.num_joints * g.size for g in self._groups.values()), f"recording {self.time + seconds:g} s at {self.fps:g} fps")
+            joints = max(g.graph.skeleton.num_joints for g in self._groups.values()) if self._groups else 1
+            check_frames(frames, joints, f"recording {self.time + seconds:g} s at {self.fps:g} fps")
         self._start()
         self._on_frame, self._on_render, self._progress = on_frame, on_render, progress
         begin, end = self.time, self.time + seconds
@@ -487,11 +491,16 @@ class Simulation:
         self.frame_times.append(t)
         self.lags.append(max(self.clock.now() - t, 0.0) if self.clock.realtime else 0.0)
         if self.record:
-            for g in self._groups.values():
-                g.recorded.append((g.rotations.copy(), g.translations.copy()))
-                if g.feet is not None:  # FREE (0) while planting is off
-                    on = self._plant
-                    g.held.append((g.feet.mode.copy() * on, g.feet.turn.copy()))
+            for k, g in enumerate(self._groups.values()):
+                if g.spool is None:
+                    if self._folder is None:
+                        self._folder = Folder()
+                    feet = 0 if g.feet is None else g.feet.mode.shape[1]
+                    g.spool = Spool(self._folder.path, f"group{k}", g.size, g.graph.skeleton.num_joints, feet)
+                if g.feet is not None and self._plant:
+                    g.spool.append(g.rotations, g.translations, g.feet.mode, g.feet.turn)
+                else:  # every foot free (FREE is 0) while planting is off
+                    g.spool.append(g.rotations, g.translations, None, None)
         if self._on_frame is not None:
             self._on_frame(self)
         if self._progress is not None:
@@ -543,23 +552,21 @@ class Simulation:
 
     def _clip(self, creature: Creature) -> Clip:
         g = creature._group
-        if not g.recorded:
+        if g.spool is None or not g.spool.frames:
             raise AdverbsError(
                 f"creature {creature.name!r}: nothing recorded ({'no frame yet' if self.record else 'the simulation does not record'})"
             )
-        rot = np.stack([r[creature.index] for r, _ in g.recorded])
-        trans = np.stack([tr[creature.index] for _, tr in g.recorded])
+        rot, trans = g.spool.creature(creature.index)
         clip = Clip(g.graph.skeleton, rot, trans, self.fps, name=creature.name)
-        at = self._frames(len(g.recorded))
+        at = self._frames(g.spool.frames)
         return clip if at is None else clip.at(at)
 
     def _holds(self, creature: Creature) -> PlantingReport | None:
         g = creature._group
-        if not g.held:
+        if g.feet is None or g.spool is None or not g.spool.frames:
             return None
-        modes = np.stack([m[creature.index] for m, _ in g.held])
-        turns = np.stack([t[creature.index] for _, t in g.held])
-        at = self._frames(len(g.held))
+        modes, turns = g.spool.held(creature.index)
+        at = self._frames(g.spool.frames)
         if at is not None:  # the nearest recorded frame's
             rows = np.rint(at).astype(int)
             modes, turns = modes[rows], turns[rows]
@@ -591,8 +598,19 @@ class Simulation:
 
     def _recorded_from(self, creature: Creature) -> float | None:
         """The simulation time of a creature's first recorded frame (None when nothing is recorded)."""
-        n = len(creature._group.recorded)
+        spool = creature._group.spool
+        n = 0 if spool is None else spool.frames
         return round(float(self.frame_times[-n]), 9) if n else None
+
+    def close(self) -> None:
+        """Let go of the recording (its files on disk); the simulation records afresh if run again."""
+        for g in self._groups.values():
+            if g.spool is not None:
+                g.spool.close()
+                g.spool = None
+        if self._folder is not None:
+            self._folder.close()
+            self._folder = None
 
     def not_run(self) -> list[dict]:
         """The commands given a time the run has not reached (scheduled past its end), each saying so."""

@@ -1,0 +1,119 @@
+"""A run's recording kept on disk as it goes, so memory stays flat whatever the run's length.
+
+A :class:`Spool` holds one group of creatures' frames: every frame shown is appended (a few dozen at a time) to a
+file of ``(C, J, 7)`` float64 rows — each joint's local rotation then translation, bit for bit what was shown —
+and the planter's modes and turns per foot to another. Nothing is kept in memory but the batch being filled. A
+creature's clip is read back alone when it is written (:meth:`Spool.creature`), so writing a long run holds one
+creature's frames at a time, not the whole crowd's. The files live in a temporary folder of the simulation's,
+removed when it is closed or collected, or when the process ends.
+"""
+
+from __future__ import annotations
+
+import shutil
+import tempfile
+import weakref
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import AdverbsError
+
+BATCH = 64  # frames held in memory before they are appended to the file
+READ_BYTES = 16 << 20  # bytes read at a time when a creature's frames are read back
+
+
+class Folder:
+    """A temporary folder for a simulation's spools, removed by :meth:`close`, when collected, or at exit."""
+
+    def __init__(self) -> None:
+        self.path = Path(tempfile.mkdtemp(prefix="adverbs-recording-"))
+        self._remove = weakref.finalize(self, shutil.rmtree, str(self.path), True)
+
+    def close(self) -> None:
+        self._remove()
+
+
+class Spool:
+    """The frames of ``creatures`` creatures of a ``joints``-joint skeleton with ``feet`` planted feet, on disk in
+    ``folder`` (see the module). :attr:`frames` counts the frames appended."""
+
+    def __init__(self, folder: Path, name: str, creatures: int, joints: int, feet: int):
+        self.shape = (int(creatures), int(joints), 7)
+        self.feet = int(feet)
+        self.frames = 0
+        self._poses = folder / f"{name}.poses.f8"
+        self._modes_path = folder / f"{name}.modes.i1"
+        self._turns_path = folder / f"{name}.turns.f8"
+        try:  # kept open while recording
+            self._files = tuple(open(p, "wb") for p in (self._poses, self._modes_path, self._turns_path))  # noqa: SIM115
+        except OSError as e:
+            raise AdverbsError(f"{folder}: cannot write the recording kept as the run goes: {e.strerror or e}") from None
+        self._batch = np.empty((BATCH, *self.shape))
+        self._modes = np.empty((BATCH, creatures, feet), dtype=np.int8)
+        self._turns = np.empty((BATCH, creatures, feet))
+        self._n = 0  # frames in the batch, not yet on disk
+        self._flushed = 0  # frames on disk
+
+    def append(self, rotations: np.ndarray, translations: np.ndarray, modes: np.ndarray | None, turns: np.ndarray | None) -> None:
+        """One frame: rotations ``(C, J, 4)``, translations ``(C, J, 3)`` and the planter's modes and turns ``(C, L)``
+        (None: no planter, or planting off: every foot free)."""
+        k = self._n
+        if k == BATCH:  # a flush was cut short: written again first
+            self.flush()
+            k = self._n
+        self._batch[k, :, :, :4] = rotations
+        self._batch[k, :, :, 4:] = translations
+        if modes is None:
+            self._modes[k], self._turns[k] = 0, 0.0
+        else:
+            self._modes[k], self._turns[k] = modes, turns
+        self._n += 1
+        self.frames += 1
+        if self._n == BATCH:
+            self.flush()
+
+    def flush(self) -> None:
+        """Append the frames held in memory to the files."""
+        if not self._n:
+            return
+        n = self._n
+        try:
+            for f, rows in zip(self._files, (self._batch, self._modes, self._turns)):
+                # From where the frames on disk end: a flush cut short (Ctrl-C, a full disk) is written again whole.
+                f.seek(self._flushed * rows[0].nbytes)
+                rows[:n].tofile(f)
+                f.truncate()
+                f.flush()
+        except OSError as e:
+            raise AdverbsError(f"{self._poses.parent}: cannot write the recording kept as the run goes: {e.strerror or e}") from None
+        self._flushed += n
+        self._n = 0
+
+    def creature(self, c: int) -> tuple[np.ndarray, np.ndarray]:
+        """Creature ``c``'s recorded rotations ``(F, J, 4)`` and translations ``(F, J, 3)``."""
+        self.flush()
+        j = self.shape[1]
+        rot, trans = np.empty((self.frames, j, 4)), np.empty((self.frames, j, 3))
+        frame = int(np.prod(self.shape))  # float64s a frame, every creature
+        step = max(1, READ_BYTES // (8 * frame))
+        with open(self._poses, "rb") as f:  # read a block of frames at a time: a mapped file's pages would all stay
+            for start in range(0, self.frames, step):
+                n = min(step, self.frames - start)
+                block = np.fromfile(f, dtype=np.float64, count=n * frame).reshape(n, *self.shape)
+                rot[start : start + n] = block[:, c, :, :4]
+                trans[start : start + n] = block[:, c, :, 4:]
+        return rot, trans
+
+    def held(self, c: int) -> tuple[np.ndarray, np.ndarray]:
+        """Creature ``c``'s planter modes ``(F, L)`` and turns ``(F, L)``, frame by frame."""
+        self.flush()
+        shape = (self.frames, self.shape[0], self.feet)
+        modes = np.fromfile(self._modes_path, dtype=np.int8).reshape(shape)
+        turns = np.fromfile(self._turns_path, dtype=np.float64).reshape(shape)
+        return modes[:, c].copy(), turns[:, c].copy()
+
+    def close(self) -> None:
+        """Close the files (the folder they are in is removed with it)."""
+        for f in self._files:
+            f.close()
