@@ -374,3 +374,23 @@ def test_a_long_recording_is_kept_on_disk_not_in_memory(cmu):
     folder = sim._folder.path
     sim.close()
     assert not folder.exists()
+
+
+def test_a_recording_written_a_block_at_a_time_is_the_whole_clip_byte_for_byte(cmu, tmp_path, monkeypatch):
+    """``Simulation.write`` writes each BVH file from the recording on disk a block of frames at a time (Euler angles
+    unwrapped on from block to block): the same bytes as the whole clip written at once."""
+    from adverbs import write_bvh
+    from adverbs.runtime import recording
+
+    monkeypatch.setattr(recording, "READ_BYTES", 3 * 70 * cmu.skeleton.num_joints * 7 * 8)  # blocks of 70 frames
+    sim = Simulation(cmu, fps=30.0, seed=4)
+    crowd = [sim.add_creature(at=(2.0 * k, 0.0), heading=50.0 * k) for k in range(3)]
+    for k, c in enumerate(crowd):
+        c.perform("run", at=0.5 + k)
+        c.set_adverbs({"turn": 60.0 - 40.0 * k}, at=1.0)  # turning: headings wrap past ±180°
+    sim.run(12.0)
+    paths = sim.write(tmp_path / "blocks", formats=("bvh", "glb"))
+    for c in crowd:
+        write_bvh(c.clip(), tmp_path / f"{c.name}.whole.bvh")
+        assert paths[c.name].read_bytes() == (tmp_path / f"{c.name}.whole.bvh").read_bytes()
+        assert paths[f"{c.name}.glb"].exists()

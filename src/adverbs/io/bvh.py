@@ -33,6 +33,7 @@ import io
 import itertools
 import os
 import re
+from collections.abc import Iterable
 from pathlib import Path
 
 import numpy as np
@@ -480,7 +481,7 @@ def write_bvh(clip: Clip, path: str | Path, precision: int = 9, portable: bool =
     frames are written a block at a time (the text of a long clip is never held whole in memory).
     """
     try:
-        header, values, fmt = _bvh_parts(clip, precision, portable)
+        header, values, fmt, _ = _bvh_parts(clip, precision, portable)
     except LimitError as e:
         raise LimitError(f"{path}: {e}") from None
     except AdverbsError as e:
@@ -489,6 +490,31 @@ def write_bvh(clip: Clip, path: str | Path, precision: int = 9, portable: bool =
         f.write(header)
         for start in range(0, len(values), WRITE_BLOCK):
             np.savetxt(f, values[start : start + WRITE_BLOCK], fmt=fmt, delimiter=" ")
+
+
+def write_bvh_blocks(path: str | Path, blocks: Iterable[Clip], frames: int, precision: int = 9) -> Path:
+    """Write as BVH one motion given as consecutive ``blocks`` (clips of one skeleton and frame rate, ``frames`` in
+    all), each checked, converted and written as it comes, its Euler angles unwrapped on from the block before: the
+    bytes :func:`write_bvh` writes of the whole clip, with one block in memory at a time (a long recording). Whole or
+    not at all, as :func:`write_bvh`."""
+    try:
+        check_frames(frames, 1, f"{frames} frames")
+        with atomic_path(path) as tmp, open(tmp, "x", encoding="utf-8", newline="\n") as f:
+            near, total = None, 0
+            for block in blocks:
+                header, values, fmt, near = _bvh_parts(block, precision, False, near, frames)
+                if total == 0:
+                    f.write(header)
+                for start in range(0, len(values), WRITE_BLOCK):
+                    np.savetxt(f, values[start : start + WRITE_BLOCK], fmt=fmt, delimiter=" ")
+                total += block.num_frames
+            if total != frames:
+                raise AdverbsError(f"{frames} frames were to be written, the blocks held {total}")
+    except LimitError as e:
+        raise LimitError(f"{path}: {e}") from None
+    except AdverbsError as e:
+        raise AdverbsError(f"{path}: {e}") from None
+    return Path(path)
 
 
 def format_bvh(clip: Clip, precision: int = 9, portable: bool = False) -> str:
@@ -502,16 +528,19 @@ def format_bvh(clip: Clip, precision: int = 9, portable: bool = False) -> str:
     of whitespace, a line break, ``{`` as a word), a channel that is not a BVH channel, no frames or no channels,
     and a clip past the limits of :mod:`adverbs.limits`.
     """
-    header, values, fmt = _bvh_parts(clip, precision, portable)
+    header, values, fmt, _ = _bvh_parts(clip, precision, portable)
     out = io.StringIO()
     out.write(header)
     np.savetxt(out, values, fmt=fmt, delimiter=" ")
     return out.getvalue()
 
 
-def _bvh_parts(clip: Clip, precision: int, portable: bool) -> tuple[str, np.ndarray, str]:
-    """:func:`format_bvh`'s work: the text up to the first frame, the channel values ``(F, C)`` in the file's column
-    order, and the number format."""
+def _bvh_parts(
+    clip: Clip, precision: int, portable: bool, near: dict | None = None, frames: int | None = None
+) -> tuple[str, np.ndarray, str, dict]:
+    """:func:`format_bvh`'s work: the text up to the first frame (saying ``frames`` frames, default the clip's), the
+    channel values ``(F, C)`` in the file's column order, the number format, and the last frame's unwrapped angles
+    (``near`` of the next block of the same motion: see :func:`write_bvh_blocks`)."""
     if isinstance(precision, bool) or not isinstance(precision, int | np.integer) or not 1 <= precision <= 17:
         raise AdverbsError(f"precision must be a whole number of significant digits from 1 to 17, got {precision!r}")
     if portable:
@@ -549,13 +578,13 @@ def _bvh_parts(clip: Clip, precision: int, portable: bool) -> tuple[str, np.ndar
         out.write(f"{pad}\tCHANNELS {len(skel.channels[j])}{''.join(' ' + c for c in skel.channels[j])}\n")
         stack.append((~j, depth))
         stack.extend((c, depth + 1) for c in reversed(children[j]))
-    values = channel_values(clip)
+    values, last = _channel_values(clip, near)
     _check_finite(values, _column_joints(skel), skel, fmt, "value")
     if written != list(range(skel.num_joints)):  # the motion's columns in the joints' order in the file
         starts = np.concatenate([[0], np.cumsum([len(c) for c in skel.channels])])
         values = values[:, np.concatenate([np.arange(starts[j], starts[j + 1]) for j in written])]
-    out.write(f"MOTION\nFrames: {clip.num_frames}\nFrame Time: {frame_time}\n")
-    return out.getvalue(), values, fmt
+    out.write(f"MOTION\nFrames: {clip.num_frames if frames is None else frames}\nFrame Time: {frame_time}\n")
+    return out.getvalue(), values, fmt, last
 
 
 def name_problem(name: object) -> str | None:
@@ -654,6 +683,14 @@ def channel_values(clip: Clip) -> np.ndarray:
 
     Joints with three rotation channels are converted together, one batch per rotation order (linear in the joints,
     with few numpy calls)."""
+    return _channel_values(clip, None)[0]
+
+
+def _channel_values(clip: Clip, near: dict | None) -> tuple[np.ndarray, dict]:
+    """:func:`channel_values`, the first frame's angles unwrapped from ``near`` (the last frame's of the block before,
+    as this returns them; None: the first block), and this block's last frame's."""
+    near = near or {}
+    last: dict = {}
     skel = clip.skeleton
     rot, trans = clip.rotations, clip.translations
     counts = [len(c) for c in skel.channels]
@@ -676,9 +713,12 @@ def channel_values(clip: Clip) -> np.ndarray:
             joints.append(j)
             cols.append(rot_cols)
         elif orders[j]:
-            values[:, rot_cols] = np.rad2deg(_euler_for_channels(rot[:, j], orders[j], skel.names[j]))
+            angles = _euler_for_channels(rot[:, j], orders[j], skel.names[j], near.get(j))
+            last[j] = angles[-1]
+            values[:, rot_cols] = np.rad2deg(angles[:, : len(orders[j])])
     for order, (joints, cols) in groups.items():
-        angles = quat.unwrap_euler(order, quat.to_euler(order, rot[:, joints]), axis=0)  # (F, n, 3)
+        angles = quat.unwrap_euler(order, quat.to_euler(order, rot[:, joints]), axis=0, near=near.get(order))  # (F, n, 3)
+        last[order] = angles[-1]
         values[:, np.array(cols)] = np.rad2deg(angles)
     if position_cols:
         with np.errstate(over="ignore"):  # past the largest float in file units: refused by the caller
@@ -701,11 +741,12 @@ def channel_values(clip: Clip) -> np.ndarray:
             f"joint {skel.names[j]!r} has no {POSITION_CHANNELS[axis]} channel but the clip moves it along "
             f"{'xyz'[axis]} from its offset"
         )
-    return values
+    return values, last
 
 
-def _euler_for_channels(q: np.ndarray, order: str, name: str) -> np.ndarray:
-    """Unwrapped Euler angles ``(F, len(order))`` in radians; joints with fewer than 3 axes must not need more.
+def _euler_for_channels(q: np.ndarray, order: str, name: str, near: np.ndarray | None = None) -> np.ndarray:
+    """Unwrapped Euler angles ``(F, 3)`` in radians, the channels' first (the first frame's unwrapped from ``near``,
+    the previous frame's angles as this returns them); joints with fewer than 3 axes must not need more.
 
     With fewer channels, the missing axes are appended and, of the two Tait–Bryan solutions, the one
     whose extra angles are nearest zero (mod 2π) is kept.
@@ -721,4 +762,4 @@ def _euler_for_channels(q: np.ndarray, order: str, name: str) -> np.ndarray:
         if extra > 1e-7:
             raise AdverbsError(f"joint {name!r} has only channels {order} but the clip rotates it about other axes")
         angles[:, len(order) :] = 0.0
-    return quat.unwrap_euler(full, angles, axis=0)[:, : len(order)]
+    return quat.unwrap_euler(full, angles, axis=0, near=near)

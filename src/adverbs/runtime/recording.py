@@ -105,6 +105,18 @@ class Spool:
                 trans[start : start + n] = block[:, c, :, 4:]
         return rot, trans
 
+    def blocks(self, c: int):
+        """Creature ``c``'s recorded rotations and translations, a block of frames at a time (as many as fit in
+        ``READ_BYTES`` for every creature): ``(n, J, 4)``, ``(n, J, 3)``."""
+        self.flush()
+        frame = int(np.prod(self.shape))
+        frames = max(1, READ_BYTES // (8 * frame))
+        with open(self._poses, "rb") as f:
+            for start in range(0, self.frames, frames):
+                n = min(frames, self.frames - start)
+                block = np.fromfile(f, dtype=np.float64, count=n * frame).reshape(n, *self.shape)
+                yield np.ascontiguousarray(block[:, c, :, :4]), np.ascontiguousarray(block[:, c, :, 4:])
+
     def held(self, c: int) -> tuple[np.ndarray, np.ndarray]:
         """Creature ``c``'s planter modes ``(F, L)`` and turns ``(F, L)``, frame by frame."""
         self.flush()

@@ -577,6 +577,7 @@ class Simulation:
         position channels on the root only; ``"glb"``: ``out/NAME.glb``) and the log of what ran (``out/events.json``).
         Returns the paths by creature name (the first format's), ``NAME.glb`` and so on for the others, and ``"events"``."""
         from ..io import write_motion
+        from ..io.bvh import write_bvh_blocks
         from ..io.files import write_atomic
 
         kinds = [str(f).lower().lstrip(".") for f in formats]
@@ -587,10 +588,21 @@ class Simulation:
         out.mkdir(parents=True, exist_ok=True)
         paths: dict[str, Path] = {}
         for c in self._creatures:
+            g = c._group
+            kinds_here = list(dict.fromkeys(kinds))
+            # A BVH file of frames evenly spaced is written from the recording a block at a time (a long run holds
+            # one block in memory, not the clip); the other files are made from the whole clip.
+            streamed = kinds_here[0] == "bvh" and not portable and g.spool is not None and g.spool.frames
+            if streamed and self._frames(g.spool.frames) is None:
+                blocks = (Clip(g.graph.skeleton, r, t, self.fps, name=c.name) for r, t in g.spool.blocks(c.index))
+                paths[c.name] = write_bvh_blocks(out / f"{c.name}.bvh", blocks, g.spool.frames)
+                kinds_here = kinds_here[1:]
+                if not kinds_here:
+                    continue
             clip = c.clip()
-            for k, kind in enumerate(dict.fromkeys(kinds)):
+            for kind in kinds_here:
                 p = write_motion(clip, out / f"{c.name}.{kind}", portable=portable)
-                paths[c.name if k == 0 else f"{c.name}.{kind}"] = p
+                paths[c.name if kind == kinds[0] else f"{c.name}.{kind}"] = p
         events = out / "events.json"
         write_atomic(events, (json.dumps(self.report(), indent=1) + "\n").encode())
         paths["events"] = events
