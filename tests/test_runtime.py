@@ -394,3 +394,27 @@ def test_a_recording_written_a_block_at_a_time_is_the_whole_clip_byte_for_byte(c
         write_bvh(c.clip(), tmp_path / f"{c.name}.whole.bvh")
         assert paths[c.name].read_bytes() == (tmp_path / f"{c.name}.whole.bvh").read_bytes()
         assert paths[f"{c.name}.glb"].exists()
+
+
+def test_the_log_of_a_long_run_is_kept_on_disk_and_reads_as_a_list(cmu, tmp_path, monkeypatch):
+    """Past a few thousand entries the log goes to disk as JSON lines (runtime.recording.EventLog); it reads back as
+    the list it was (iterated, indexed, compared), and events.json is written from it entry by entry."""
+    import json
+
+    from adverbs.runtime import recording
+
+    monkeypatch.setattr(recording.EventLog, "IN_MEMORY", 7)
+    sim = Simulation(cmu, fps=30.0, seed=3)
+    c = sim.add_creature()
+    for t in np.arange(0.3, 20.0, 0.7):
+        c.perform(["run", "walk"][int(t) % 2], at=float(t))
+    sim.run(20.0)
+    assert sim.log._on_disk > 0  # spilled
+    entries = list(sim.log)
+    assert len(sim.log) == len(entries) > 40 and sim.log == entries and sim.log[-1] == entries[-1]
+    assert sim.log[3] == entries[3] and sim.log[2:5] == entries[2:5]
+    paths = sim.write(tmp_path / "o")
+    report = json.loads(paths["events"].read_text())
+    assert report["events"] == entries and report["frames"] == sim.frames
+    del sim.log[:-10]  # trimmed (the viewer keeps its last entries)
+    assert list(sim.log) == entries[-10:]

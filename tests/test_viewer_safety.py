@@ -22,7 +22,7 @@ from hypothesis import strategies as st
 from adverbs.errors import AdverbsError, AdverbsWarning
 
 ROOT = Path(__file__).resolve().parent.parent
-FLOOD_SECONDS = 25.0
+FLOOD_SECONDS = 30.0  # the issue asks 30 s of simultaneous refusals and commands
 PAGE = os.sysconf("SC_PAGE_SIZE")
 
 

@@ -53,7 +53,7 @@ _WHITESPACE = " \t\v\f\x1c\x1d\x1e\x1f"  # what separates words (str.split's whi
 _SPACES = re.compile(f"[{re.escape(_WHITESPACE)}]+")
 _FRAME_COUNT = re.compile(r"\+?[0-9]+")
 READ_COST = 8  # bytes of memory per byte of a file while it is read (bytes, text, lines, words, numbers)
-WRITE_BLOCK = 4096  # frames formatted and written at a time
+WRITE_BLOCK = 1024  # frames formatted and written at a time
 WRITE_INDENT = 32  # the writer indents a joint by its depth, up to this many tabs (a deep chain stays linear)
 
 

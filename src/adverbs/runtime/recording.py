@@ -20,7 +20,7 @@ import numpy as np
 from ..errors import AdverbsError
 
 BATCH = 64  # frames held in memory before they are appended to the file
-READ_BYTES = 16 << 20  # bytes read at a time when a creature's frames are read back
+READ_BYTES = 4 << 20  # bytes read at a time when a creature's frames are read back
 
 
 class Folder:
@@ -129,3 +129,82 @@ class Spool:
         """Close the files (the folder they are in is removed with it)."""
         for f in self._files:
             f.close()
+
+
+class EventLog:
+    """A simulation's log (commands, refusals, transitions, arrivals: one dict each), read as a list — iterated,
+    indexed, counted, compared — and kept on disk as JSON lines once past :data:`IN_MEMORY` entries, so a long run's
+    log does not grow in memory. ``folder()`` gives the folder to keep it in (made when first needed)."""
+
+    IN_MEMORY = 4096  # entries held in memory before they are appended to the file
+
+    def __init__(self, folder) -> None:
+        self._folder = folder
+        self._path: Path | None = None
+        self._on_disk = 0
+        self._recent: list[dict] = []
+
+    def append(self, entry: dict) -> None:
+        self._recent.append(entry)
+        if len(self._recent) >= self.IN_MEMORY:
+            self._spill()
+
+    def _spill(self) -> None:
+        import json
+
+        if self._path is None:
+            self._path = self._folder() / "events.jsonl"
+        try:
+            with open(self._path, "a", encoding="utf-8") as f:
+                f.write("".join(json.dumps(e) + "\n" for e in self._recent))
+        except OSError as e:
+            raise AdverbsError(f"{self._path}: cannot write the log kept as the run goes: {e.strerror or e}") from None
+        self._on_disk += len(self._recent)
+        self._recent = []
+
+    def __len__(self) -> int:
+        return self._on_disk + len(self._recent)
+
+    def __iter__(self):
+        import json
+
+        recent = list(self._recent)  # what was in memory when the reading began
+        if self._on_disk:
+            with open(self._path, encoding="utf-8") as f:
+                for _, line in zip(range(self._on_disk), f):
+                    yield json.loads(line)
+        yield from recent
+
+    def __getitem__(self, k):
+        if isinstance(k, slice):
+            return list(self)[k]
+        n = len(self)
+        k = k + n if k < 0 else k
+        if not 0 <= k < n:
+            raise IndexError("log index out of range")
+        if k >= self._on_disk:
+            return self._recent[k - self._on_disk]
+        return next(e for i, e in enumerate(self) if i == k)
+
+    def __delitem__(self, k) -> None:
+        kept = list(self)
+        del kept[k]
+        self.clear()
+        self._recent = kept  # (a trimmed log: the viewer keeps its last entries)
+
+    def to_memory(self) -> None:
+        """Hold every entry in memory again (its file is about to go)."""
+        entries = list(self)
+        self.clear()
+        self._recent = entries
+
+    def clear(self) -> None:
+        if self._path is not None:
+            self._path.unlink(missing_ok=True)
+        self._on_disk, self._recent = 0, []
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, EventLog | list) and list(self) == list(other)
+
+    def __repr__(self) -> str:
+        return f"EventLog({len(self)} entries)"

@@ -48,7 +48,7 @@ from ..motion.clip import Clip
 from ..feet.offline import PlantingReport, report_of_modes
 from .events import NORMAL, SYNC, EventQueue, Processed, VirtualClock, WallClock, run_events
 from .frame import FramePass, supported
-from .recording import Folder, Spool
+from .recording import EventLog, Folder, Spool
 
 EASE = 0.5  # seconds: how long an adverb change takes by default
 MARGIN = 1.25  # the frame interval on the wall clock is at least this many times the measured render cost
@@ -223,7 +223,9 @@ class Simulation:
         self.lags: list[float] = []  # how late each frame was shown (clock − its time; 0 on the virtual clock)
         self.costs: list[float] = []  # wall seconds each render took
         self.wall_seconds = 0.0  # wall seconds spent in run(), all runs
-        self.log: list[dict] = []  # the commands that ran or were refused, and the transitions started
+        # The commands that ran or were refused, the transitions started, the verbs arrived at: read as a list, kept
+        # on disk past a few thousand entries (recording.EventLog).
+        self.log = EventLog(self._recording_folder)
         self._groups: dict[int, _Group] = {}
         self._creatures: list[Creature] = []
         self._cost = 0.0
@@ -493,10 +495,8 @@ class Simulation:
         if self.record:
             for k, g in enumerate(self._groups.values()):
                 if g.spool is None:
-                    if self._folder is None:
-                        self._folder = Folder()
                     feet = 0 if g.feet is None else g.feet.mode.shape[1]
-                    g.spool = Spool(self._folder.path, f"group{k}", g.size, g.graph.skeleton.num_joints, feet)
+                    g.spool = Spool(self._recording_folder(), f"group{k}", g.size, g.graph.skeleton.num_joints, feet)
                 if g.feet is not None and self._plant:
                     g.spool.append(g.rotations, g.translations, g.feet.mode, g.feet.turn)
                 else:  # every foot free (FREE is 0) while planting is off
@@ -578,7 +578,6 @@ class Simulation:
         Returns the paths by creature name (the first format's), ``NAME.glb`` and so on for the others, and ``"events"``."""
         from ..io import write_motion
         from ..io.bvh import write_bvh_blocks
-        from ..io.files import write_atomic
 
         kinds = [str(f).lower().lstrip(".") for f in formats]
         bad = [f for f in kinds if f not in ("bvh", "glb")]
@@ -604,15 +603,33 @@ class Simulation:
                 p = write_motion(clip, out / f"{c.name}.{kind}", portable=portable)
                 paths[c.name if kind == kinds[0] else f"{c.name}.{kind}"] = p
         events = out / "events.json"
-        write_atomic(events, (json.dumps(self.report(), indent=1) + "\n").encode())
+        self._write_report(events)
         paths["events"] = events
         return paths
+
+    def _write_report(self, path: Path) -> None:
+        """:meth:`report` as JSON at ``path``, its events written one by one from the log (a long run's log is
+        never held whole in memory); whole or not at all."""
+        from ..io.files import atomic_path
+
+        rest = json.dumps(self.report(events=False), indent=1)
+        with atomic_path(path) as tmp, open(tmp, "x", encoding="utf-8") as f:
+            f.write('{\n "events": [')
+            for i, e in enumerate(self.log):
+                f.write(("," if i else "") + "\n  " + json.dumps(e))
+            f.write("\n ],\n" + rest[2:] + "\n")
 
     def _recorded_from(self, creature: Creature) -> float | None:
         """The simulation time of a creature's first recorded frame (None when nothing is recorded)."""
         spool = creature._group.spool
         n = 0 if spool is None else spool.frames
         return round(float(self.frame_times[-n]), 9) if n else None
+
+    def _recording_folder(self) -> Path:
+        """The temporary folder the recording and the log are kept in (made when first needed)."""
+        if self._folder is None:
+            self._folder = Folder()
+        return self._folder.path
 
     def close(self) -> None:
         """Let go of the recording (its files on disk); the simulation records afresh if run again."""
@@ -621,6 +638,7 @@ class Simulation:
                 g.spool.close()
                 g.spool = None
         if self._folder is not None:
+            self.log.to_memory()  # the log stays readable without the folder
             self._folder.close()
             self._folder = None
 
@@ -631,7 +649,7 @@ class Simulation:
             for e in self._scheduled.values()
         ]
 
-    def report(self) -> dict:
+    def report(self, events: bool = True) -> dict:
         """What ran: the frame rate, the creatures, the commands and transitions (the log), and skipped events."""
         frames = np.asarray(self.frame_times)
         steps = np.diff(frames)
@@ -647,7 +665,7 @@ class Simulation:
                  "recorded_from": self._recorded_from(c)}
                 for c in self._creatures
             ],
-            "events": self.log,
+            **({"events": list(self.log)} if events else {}),
             "not_run": self.not_run(),
             "skipped": [{"time": t, "event": n} for t, n in self.processed.skipped],
         }
