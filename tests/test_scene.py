@@ -12,12 +12,14 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from adverbs import AdverbsError, read_bvh
+from adverbs import AdverbsError, load_graph, read_bvh
 from adverbs.apps import blender
 from adverbs.apps.cli import main
 from adverbs.apps.render import render
 from adverbs.apps.scene import DEMO_SCRIPT, run_script
 from adverbs.errors import AdverbsWarning
+from adverbs.runtime import Simulation
+from adverbs.runtime.script import load_script
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -254,3 +256,22 @@ def test_the_planter_s_holds_are_recorded_and_measure_the_feet(scene):
         verb = next(v for v in c.graph.verbs if v.holds)
         m = measure_feet(verb, clip, report, sim.floor)
         assert m.toe_drift.max() <= 0.001 and m.lowest > -0.001, m.line()
+
+
+def test_the_demo_filmstrip_shows_every_verb_its_creature_was_told_to_perform(tmp_path):
+    """The filmstrip's panels fall inside each commanded verb's time playing alone (the bow of the demo was between
+    two evenly spaced panels), with the start and the end."""
+    from adverbs.apps.scene import _panel_times
+
+    script = load_script(DEMO_SCRIPT)
+    graphs = [load_graph(ROOT / "graphs" / f"{n}.toml") for n in ("bandai", "cmu")]
+    sim = Simulation(graphs, fps=30.0, seed=script.seed, record=False)
+    script.apply(sim)
+    sim.run(script.seconds)
+    times = _panel_times(sim, "bandai")
+    arrived = [(e["time"], e["verb"]) for e in sim.log if e["creature"] == "bandai" and e["command"] == "arrived"]
+    assert times[0] == 0.0 and times[-1] == pytest.approx(sim.time) and len(times) == len(arrived) + 2
+    ends = [t for t, _ in arrived[1:]] + [sim.time]
+    for (start, verb), end, t in zip(arrived, ends, times[1:-1]):
+        assert start < t < end, (verb, start, t, end)
+    assert "bow" in [v for _, v in arrived]

@@ -199,13 +199,15 @@ def render(
     floor: float | Floor | None = None,
     split: bool = False,
     progress: Callable[[int, int], object] | None = None,
+    at: Sequence[float] | None = None,
 ) -> Path:
     """Draw ``clips`` (one scene: they play together from time 0) into ``output``: ``.gif`` or ``.mp4`` (every frame
     at ``fps``, default the first clip's up to 30) or ``.png`` (``panels`` evenly spaced frames). ``view``: a
     named camera or ``"AZ,EL"``; ``trail``: seconds of root path shown (0: none); ``floor``: the ground, a
     :class:`~adverbs.kinematics.floor.Floor` (the one the feet were planted on) or a level's height (default: level
     at 0, or where the feet are if they stand well off it); ``split``: each clip in its own view, side by
-    side (a filmstrip: a row each), rather than all in one."""
+    side (a filmstrip: a row each), rather than all in one; ``at``: a filmstrip's panel times in seconds (instead of
+    ``panels`` evenly spaced)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -238,9 +240,16 @@ def render(
         raise AdverbsError(f"size must be from 16 to 4096 pixels each way, got {w}x{h}")
     still = output.suffix.lower() == ".png"
     if still:
-        if not 1 <= panels <= 64:
+        if at is not None:
+            times = np.asarray(at, dtype=float).reshape(-1)
+            if not (1 <= len(times) <= 64 and np.all(np.isfinite(times))):
+                raise AdverbsError(f"at: 1 to 64 finite panel times, got {len(times)}")
+            times = np.clip(times, 0.0, seconds)
+            panels = len(times)
+        elif not 1 <= panels <= 64:
             raise AdverbsError(f"panels must be from 1 to 64, got {panels}")
-        times = np.linspace(0.0, seconds, panels)
+        else:
+            times = np.linspace(0.0, seconds, panels)
     else:
         n = int(np.floor(seconds * fps + 1e-9)) + 1
         if n > MAX_FRAMES:

@@ -12,6 +12,8 @@ import warnings
 from collections.abc import Sequence
 from pathlib import Path
 
+import numpy as np
+
 from ..errors import AdverbsError, AdverbsWarning
 from ..graph import load_graph
 from ..graph.structure import Graph
@@ -293,7 +295,8 @@ def demo(out: Path, script: Path = DEMO_SCRIPT) -> dict[str, Path]:
         paths["animation"] = render(clips, out / "demo.gif", fps=10, size=(960, 420), split=True, progress=update)
     finally:
         close()
-    paths["filmstrip"] = render(clips, out / "demo.png", panels=8, size=(400, 360), split=True)
+    at = _panel_times(sim, sim.creatures[0].name)
+    paths["filmstrip"] = render(clips, out / "demo.png", size=(400, 360), split=True, at=at)
     report = {"summary": summary(sim), "feet": _feet(sim, clips), **sim.report()}
     write_atomic(out / "report.json", (json.dumps(report, indent=1) + "\n").encode())
     paths["report"] = out / "report.json"
@@ -306,6 +309,18 @@ def demo(out: Path, script: Path = DEMO_SCRIPT) -> dict[str, Path]:
     for name, p in paths.items():
         print(f"  {p}" + ("" if name in ("events", "animation", "filmstrip", "report") else f"  (creature {_creature(name)})"))
     return paths
+
+
+def _panel_times(sim: Simulation, creature: str, panels: int = 8) -> list[float]:
+    """A filmstrip's panel times that show every verb ``creature`` was told to perform: the start, each commanded
+    verb a second after it came to play alone (or halfway to the next, if sooner), the end; evenly spaced when
+    there are more verbs than panels."""
+    arrived = [e["time"] for e in sim.log if e["creature"] == creature and e["command"] == "arrived"]
+    ends = arrived[1:] + [sim.time]
+    shown = [min(t + 1.0, 0.5 * (t + end)) for t, end in zip(arrived, ends)]
+    if len(shown) > panels - 2:
+        return list(np.linspace(0.0, sim.time, panels))
+    return [0.0, *shown, sim.time]
 
 
 def _feet(sim: Simulation, clips: list) -> dict[str, str]:
