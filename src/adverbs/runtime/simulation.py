@@ -83,7 +83,6 @@ class _Group:
     translations: np.ndarray | None = None
     spool: Spool | None = None  # the frames shown, kept on disk (recording.Spool), and the planter's modes and turns
     shown_active: np.ndarray | None = None  # the transition each creature was in at the last frame
-    arrived: int = 0  # how many of the state's latencies the log has
 
     @property
     def size(self) -> int:
@@ -525,12 +524,12 @@ class Simulation:
             else:
                 g.rotations, g.translations = frame.rotations, frame.translations
         g.shown_active = s.active.copy()
-        for c, name, seconds in s.latencies[g.arrived :]:  # commands whose verb now plays alone
+        for c, name, seconds in s.latencies:  # commands whose verb now plays alone: into the log, which keeps them
             self.log.append({
                 "time": round(t, 9), "creature": g.names[c], "command": "arrived", "verb": name,
                 "seconds": round(float(seconds), 6), "status": "ran",
             })  # fmt: skip
-        g.arrived = len(s.latencies)
+        s.latencies.clear()  # (a long run's state would otherwise keep one entry per command)
         for c in np.flatnonzero((s.active != before) & (s.active >= 0)):
             tr = g.graph.transitions[s.active[c]]
             names = g.graph.verb_names
