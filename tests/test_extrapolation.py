@@ -162,3 +162,31 @@ def test_other_methods_are_warned_and_refused_as_ours_is(tmp_path):
         r = run("synth", verb, "--adverb", "turn=-1e4", "--method", method, "-o", tmp_path / f"{method}.bvh")
         assert r.returncode == 1 and "degenerates" in r.stderr and "turn -118.336 .. 94.3199" in r.stderr, r.stderr
         assert not (tmp_path / f"{method}.bvh").exists()
+
+
+def test_a_foot_that_never_comes_down_is_reported_from_the_frames(verbs):
+    """Far past its examples the reach's legs extrapolate off the ground: its right toe never comes within 5 cm of its
+    contact height though the planter's own state says nothing is wrong (no held phase drifts). The report measures
+    the frames: it names that foot; at the examples' mean no foot is named; and frames raised off the floor behind the
+    planter's back (the report's state unchanged) are seen, so the number cannot be computed from state alone."""
+    from adverbs.feet.measures import measure_feet
+    from adverbs.feet.planter import LIFTED
+
+    verb, _ = verbs["bandai_reach"]
+    far = verb.point({"hand_x": -0.11, "hand_y": 1.91, "hand_z": 0.33})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", AdverbsWarning)
+        clip, k = verb.synthesize(far)
+    planted, report = plant_feet(verb, clip, k, None, far)
+    m = measure_feet(verb, planted, report)
+    assert m.aloft.max() > 0.05 and "feet never down" in m.line()
+    assert float(np.max(m.toe_drift, initial=0.0)) < 1e-3  # what the planter's own phases say: nothing moved
+    mean = verb.points.mean(axis=0)
+    clip, k = verb.synthesize(mean)
+    planted, report = plant_feet(verb, clip, k, None, mean)
+    ok = measure_feet(verb, planted, report)
+    assert ok.aloft.max() <= LIFTED and "never down" not in ok.line()
+    raised = planted.replace(translations=planted.translations + np.array([0.0, 0.1, 0.0]) * (np.arange(planted.skeleton.num_joints) == 0)[:, None])
+    lie = measure_feet(verb, raised, report)  # the same report: only the frames changed
+    np.testing.assert_allclose(lie.aloft, ok.aloft + 0.1, rtol=0, atol=1e-6)
+    assert "never down" in lie.line()

@@ -54,17 +54,21 @@ class FootMetrics:
     release_speed: np.ndarray
     unreachable: int
     free_slide: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    aloft: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (L,) each foot's lowest, over its contact height
+    feet: tuple[str, ...] = ()  # the constrained effectors' names, in the order of ``aloft``
 
     def line(self) -> str:
         """One line for a terminal."""
         def mm(x: np.ndarray, f=np.max) -> str:
             return f"{1000 * f(x):.1f}" if len(x) else "-"
 
+        never = [f"{n} {1000 * a:.0f} mm" for n, a in zip(self.feet, self.aloft) if a > LIFTED]
         return (
             f"toe drift median {mm(self.toe_drift, np.median)} / max {mm(self.toe_drift)} mm, heel drift max "
             f"{mm(self.heel_drift)} mm, lowest {1000 * self.lowest:+.1f} mm, held height within "
             f"{1000 * self.held_height:.1f} mm, slide after release max {mm(self.slide)} mm, "
             f"{self.unreachable} effector-frames out of reach"
+            + (f"; feet never down (lowest over the contact height): {', '.join(never)}" if never else "")
         )
 
 
@@ -107,6 +111,9 @@ def measure_feet(
         np.array([speed[b : b + 3, i].max() for i, _, b in releases]),
         report.unreachable,
         free_slide,
+        # Measured on the frames, whatever the planter held: a foot the verb puts down that never comes near the ground.
+        np.array([0.0 if follows[i] else max(float(above[:, i].min()), 0.0) for i in range(len(tips))]),
+        tuple(verb.skeleton.names[j] for j in tips),
     )
 
 
