@@ -418,3 +418,30 @@ def test_the_log_of_a_long_run_is_kept_on_disk_and_reads_as_a_list(cmu, tmp_path
     assert report["events"] == entries and report["frames"] == sim.frames
     del sim.log[:-10]  # trimmed (the viewer keeps its last entries)
     assert list(sim.log) == entries[-10:]
+
+
+def test_reports_after_close_a_refused_nan_and_a_cue_whose_adverbs_were_set(cmu, tmp_path, monkeypatch):
+    """Found by review: after ``close`` a simulation logs to a new folder (its log file went with the old one); a cue
+    refusing a NaN adverb is printed, not a traceback; a verb refused beside adverbs that were set says both."""
+    import warnings as w
+
+    from adverbs.apps.scene import cue_lines
+    from adverbs.graph import Cue, perform
+    from adverbs.runtime import recording
+
+    monkeypatch.setattr(recording.EventLog, "IN_MEMORY", 8)
+    sim = Simulation(cmu, fps=30.0)
+    c = sim.add_creature()
+    for t in np.arange(0.2, 3.0, 0.3):
+        c.perform(["run", "walk"][int(10 * t) % 2], at=float(t))
+    sim.run(3.0)
+    sim.close()
+    c.perform("run", at=3.5)
+    with w.catch_warnings():
+        w.simplefilter("ignore", AdverbsWarning)
+        c.set_adverbs({"turn": float("nan")}, at=3.6, over=0.0)
+    sim.run(3.0)  # the log spills again, into a new folder
+    lines = cue_lines(sim, c.name)
+    assert any("turn=nan: refused" in line for line in lines), lines
+    perf = perform(cmu, [Cue(1.0, "fly", {"turn": -30.0})], seconds=2.0)
+    assert perf.cues[0][2].startswith("adverbs set; refused: ") and perf.state.points[0][cmu.adverb_names.index("turn")] == -30.0

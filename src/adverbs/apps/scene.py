@@ -193,6 +193,11 @@ def summary(sim: Simulation) -> list[str]:
     return lines
 
 
+def _value(v) -> str:
+    """An adverb value as the log holds it (a number, or a refused value as its text: 'nan')."""
+    return f"{v:g}" if isinstance(v, int | float) and not isinstance(v, bool) else str(v)
+
+
 def cue_lines(sim: Simulation, creature: str) -> list[str]:
     """Every command given to ``creature``, a line each: its time, what it asked, what became of it (refused, adverbs
     set, its verb playing alone and when, superseded by a later one, not there by the end, or after the end)."""
@@ -201,7 +206,7 @@ def cue_lines(sim: Simulation, creature: str) -> list[str]:
     for i, e in enumerate(mine):
         if e["command"] not in ("perform", "adverbs"):
             continue
-        what = e["verb"] if e["command"] == "perform" else ", ".join(f"{k}={v:g}" for k, v in e["adverbs"].items())
+        what = e["verb"] if e["command"] == "perform" else ", ".join(f"{k}={_value(v)}" for k, v in e["adverbs"].items())
         if e["status"] == "refused":
             outcome = f"refused: {e['reason']}"
         elif e["command"] == "adverbs":
@@ -218,8 +223,8 @@ def cue_lines(sim: Simulation, creature: str) -> list[str]:
         out.append(f"{e['time']:7.2f} s  {what}: {outcome}")
     for e in sim.not_run():
         if e["creature"] == creature:
-            what = e.get("verb") or ", ".join(f"{k}={v:g}" for k, v in e.get("adverbs", {}).items())
-            out.append(f"{e['time']:7.2f} s  {what}: not run: {e['reason']}")
+            what = e.get("verb") or ", ".join(f"{k}={_value(v)}" for k, v in e.get("adverbs", {}).items())
+            out.append(f"{e['time']:7.2f} s  {what}: {e['reason']}")
     return out
 
 

@@ -135,7 +135,8 @@ def perform(
                         waiting = None
             except (CommandRefused, AdverbsError) as e:
                 refused.append((cue.time, str(e)))
-                outcomes[-1][2] = f"refused: {e}"
+                done = "adverbs set; " if outcomes[-1][2] == "adverbs set" else ""  # the verb refused, its adverbs kept
+                outcomes[-1][2] = f"{done}refused: {e}"
         before = len(state.latencies)
         frame = first_frame(state) if from_start and f == 0 else step(state, dt)
         free_rot[f], free_trans[f] = frame.rotations[0], frame.translations[0]

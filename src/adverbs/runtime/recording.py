@@ -70,8 +70,12 @@ class Spool:
             self._modes[k], self._turns[k] = modes, turns
         self._n += 1
         self.frames += 1
-        if self._n == BATCH:
-            self.flush()
+
+    @property
+    def full(self) -> bool:
+        """Whether the frames held in memory are a whole batch, to :meth:`flush` (the caller's to do, after every group
+        has its frame: an interrupted flush then loses no group's frame)."""
+        return self._n >= BATCH
 
     def flush(self) -> None:
         """Append the frames held in memory to the files."""
@@ -201,6 +205,7 @@ class EventLog:
     def clear(self) -> None:
         if self._path is not None:
             self._path.unlink(missing_ok=True)
+        self._path = None  # made again (in the folder of the moment) when next needed
         self._on_disk, self._recent = 0, []
 
     def __eq__(self, other) -> bool:

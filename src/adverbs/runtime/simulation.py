@@ -500,6 +500,9 @@ class Simulation:
                     g.spool.append(g.rotations, g.translations, g.feet.mode, g.feet.turn)
                 else:  # every foot free (FREE is 0) while planting is off
                     g.spool.append(g.rotations, g.translations, None, None)
+            for g in self._groups.values():  # to disk once every group has this frame (Ctrl-C in a write loses none)
+                if g.spool.full:
+                    g.spool.flush()
         if self._on_frame is not None:
             self._on_frame(self)
         if self._progress is not None:
@@ -644,7 +647,7 @@ class Simulation:
     def not_run(self) -> list[dict]:
         """The commands given a time the run has not reached (scheduled past its end), each saying so."""
         return [
-            {**e, "status": "not run", "reason": f"after the end of the run ({self.time:g} s)"}
+            {**e, "status": "not run", "reason": f"not reached: the run stopped at {self.time:g} s"}
             for e in self._scheduled.values()
         ]
 
