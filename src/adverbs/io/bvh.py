@@ -29,11 +29,12 @@ written depth first.
 
 from __future__ import annotations
 
+import contextlib
 import io
 import itertools
 import os
 import re
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 import numpy as np
@@ -480,41 +481,42 @@ def write_bvh(clip: Clip, path: str | Path, precision: int = 9, portable: bool =
     :func:`read_bvh` would refuse is refused (see :func:`format_bvh`), naming ``path``, and nothing is written. The
     frames are written a block at a time (the text of a long clip is never held whole in memory).
     """
-    try:
-        header, values, fmt, _ = _bvh_parts(clip, precision, portable)
-    except LimitError as e:
-        raise LimitError(f"{path}: {e}") from None
-    except AdverbsError as e:
-        raise AdverbsError(f"{path}: {e}") from None
-    with atomic_path(path) as tmp, open(tmp, "x", encoding="utf-8", newline="\n") as f:
-        f.write(header)
-        for start in range(0, len(values), WRITE_BLOCK):
-            np.savetxt(f, values[start : start + WRITE_BLOCK], fmt=fmt, delimiter=" ")
+    write_bvh_blocks(path, [clip], clip.num_frames, precision, portable)
 
 
-def write_bvh_blocks(path: str | Path, blocks: Iterable[Clip], frames: int, precision: int = 9) -> Path:
+def write_bvh_blocks(
+    path: str | Path, blocks: Iterable[Clip], frames: int, precision: int = 9, portable: bool = False
+) -> Path:
     """Write as BVH one motion given as consecutive ``blocks`` (clips of one skeleton and frame rate, ``frames`` in
-    all), each checked, converted and written as it comes, its Euler angles unwrapped on from the block before: the
-    bytes :func:`write_bvh` writes of the whole clip, with one block in memory at a time (a long recording). Whole or
-    not at all, as :func:`write_bvh`."""
-    try:
+    all; ``portable``: each made portable, see :func:`write_bvh`), each checked, converted and written as it comes,
+    its Euler angles unwrapped on from the block before: the bytes :func:`write_bvh` writes of the whole clip, with
+    one block in memory at a time (a long recording). Whole or not at all, as :func:`write_bvh`."""
+    with _naming(path):
         check_frames(frames, 1, f"{frames} frames")
-        with atomic_path(path) as tmp, open(tmp, "x", encoding="utf-8", newline="\n") as f:
-            near, total = None, 0
-            for block in blocks:
-                header, values, fmt, near = _bvh_parts(block, precision, False, near, frames)
-                if total == 0:
-                    f.write(header)
-                for start in range(0, len(values), WRITE_BLOCK):
-                    np.savetxt(f, values[start : start + WRITE_BLOCK], fmt=fmt, delimiter=" ")
-                total += block.num_frames
-            if total != frames:
-                raise AdverbsError(f"{frames} frames were to be written, the blocks held {total}")
+    with atomic_path(path) as tmp, open(tmp, "x", encoding="utf-8", newline="\n") as f:
+        near, total = None, 0
+        for block in blocks:
+            with _naming(path):
+                header, values, fmt, near = _bvh_parts(block, precision, portable, near, frames)
+            if total == 0:
+                f.write(header)
+            for start in range(0, len(values), WRITE_BLOCK):
+                np.savetxt(f, values[start : start + WRITE_BLOCK], fmt=fmt, delimiter=" ")
+            total += block.num_frames
+        if total != frames:
+            raise AdverbsError(f"{path}: {frames} frames were to be written, the blocks held {total}")
+    return Path(path)
+
+
+@contextlib.contextmanager
+def _naming(path: str | Path) -> Iterator[None]:
+    """Errors of the block (a clip the reader would refuse, a limit passed) say which file they are about."""
+    try:
+        yield
     except LimitError as e:
         raise LimitError(f"{path}: {e}") from None
     except AdverbsError as e:
         raise AdverbsError(f"{path}: {e}") from None
-    return Path(path)
 
 
 def format_bvh(clip: Clip, precision: int = 9, portable: bool = False) -> str:
