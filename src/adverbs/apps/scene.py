@@ -193,6 +193,13 @@ def summary(sim: Simulation) -> list[str]:
     return lines
 
 
+def _asked(e: dict) -> str:
+    """What a logged command asked, in words: its verb, or its adverbs."""
+    if e["command"] == "perform":
+        return str(e["verb"])
+    return ", ".join(f"{k}={_value(v)}" for k, v in e["adverbs"].items())
+
+
 def _value(v) -> str:
     """An adverb value as the log holds it (a number, or a refused value as its text: 'nan')."""
     return f"{v:g}" if isinstance(v, int | float) and not isinstance(v, bool) else str(v)
@@ -206,7 +213,7 @@ def cue_lines(sim: Simulation, creature: str) -> list[str]:
     for i, e in enumerate(mine):
         if e["command"] not in ("perform", "adverbs"):
             continue
-        what = e["verb"] if e["command"] == "perform" else ", ".join(f"{k}={_value(v)}" for k, v in e["adverbs"].items())
+        what = _asked(e)
         if e["status"] == "refused":
             outcome = f"refused: {e['reason']}"
         elif e["command"] == "adverbs":
@@ -223,8 +230,7 @@ def cue_lines(sim: Simulation, creature: str) -> list[str]:
         out.append(f"{e['time']:7.2f} s  {what}: {outcome}")
     for e in sim.not_run():
         if e["creature"] == creature:
-            what = e.get("verb") or ", ".join(f"{k}={_value(v)}" for k, v in e.get("adverbs", {}).items())
-            out.append(f"{e['time']:7.2f} s  {what}: {e['reason']}")
+            out.append(f"{e['time']:7.2f} s  {_asked(e)}: {e['reason']}")
     return out
 
 

@@ -52,7 +52,7 @@ from ..verb._sampling_kernel import GENERIC, VELOCITIES, goal_weight, phase, que
 STARTED, FINISHED = 1, 2  # events: a transition started, or finished, this frame
 FREE, BALL = 0, 2  # planting.FREE, planting.BALL
 # Where each constant sits in ``k_`` (see frame.FramePass).
-_LATE, _MIN_DURATION, _INERTIAL, _SEAM, _LN2, _REPLANT, _REPLANTED, _SETTLE, _SWING, _LIFT = range(10)
+_LATE, _MIN_DURATION, _INERTIAL, _LN2, _REPLANT, _REPLANTED, _SWING, _LIFT = range(8)
 
 
 # ----- the tables, packed: per verb, a slice of a flat array (see frame.tables and FramePass) ------------------

@@ -37,7 +37,7 @@ from ..graph.planted import GraphFeet
 from ..graph.state import GraphState, sync_head
 from ..graph.structure import Graph
 from ..feet import planter as planting
-from ..verb.sampling import SEAM_BLEND, SamplingState
+from ..verb.sampling import SamplingState
 from . import _frame_kernel as kernel
 
 CHUNK = 64  # creatures: each chunk allocates the kernel's working arrays once a frame, and plants its feet in one call
@@ -52,7 +52,6 @@ class Tables:
 
     verbs: tuple
     transitions: tuple
-    target: np.ndarray
     dofs: int
     skeleton: tuple
 
@@ -107,10 +106,9 @@ def tables(graph: Graph) -> Tables:
         np.array([bool(v.holds) for v in vs], dtype=np.bool_),
     )  # fmt: skip
     ts = graph.transitions
-    target = np.array([t.target for t in ts], dtype=np.int64)
     transitions = (
         np.array([(*t.source_region, *t.target_region) for t in ts], dtype=float),
-        target,
+        np.array([t.target for t in ts], dtype=np.int64),
         np.array([t.blend == "inertial" for t in ts], dtype=np.bool_),
         np.ascontiguousarray(graph.between_verbs, dtype=np.bool_),
     )
@@ -118,7 +116,7 @@ def tables(graph: Graph) -> Tables:
         np.asarray(graph.skeleton.parents, dtype=np.int64), np.ascontiguousarray(graph.feet_array, dtype=np.int64),
         np.ascontiguousarray(graph.inverse_above_body, dtype=float), int(vs[0].encoding.body_root),
     )  # fmt: skip
-    out = Tables(verbs, transitions, target, max(v.num_dofs for v in vs), skeleton)
+    out = Tables(verbs, transitions, max(v.num_dofs for v in vs), skeleton)
     _TABLES[graph] = out
     return out
 
@@ -126,8 +124,8 @@ def tables(graph: Graph) -> Tables:
 def _constants() -> np.ndarray:
     """The kernel's constants ``k_`` (see ``_frame_kernel``)."""
     return np.array([
-        graph_state._LATE, graph_state.MIN_DURATION, graph_state.INERTIAL_HALFLIFE, SEAM_BLEND, planting._LN2, planted.REPLANT,
-        planted.REPLANTED, planting.SETTLE_HALFLIFE, planting.SWING_HALFLIFE, planting.LIFT_HALFLIFE,
+        graph_state._LATE, graph_state.MIN_DURATION, graph_state.INERTIAL_HALFLIFE, planting._LN2, planted.REPLANT,
+        planted.REPLANTED, planting.SWING_HALFLIFE, planting.LIFT_HALFLIFE,
     ])  # fmt: skip
 
 
@@ -211,13 +209,21 @@ class FramePass:
                     held[...] = state.caches[(v, slot), "holds"]
                 state.caches[v, slot] = new
                 state.caches[(v, slot), "holds"] = held
-                try:
-                    clocks._sampling(state, v, slot)
-                except AdverbsError:  # a point this verb refuses, where no creature plays it: left until one does
-                    continue
-                self._fresh.add((v, slot))
+        self._bring_up_to_date()
         self._version = state.cache_version
         return tables, offsets
+
+    def _bring_up_to_date(self) -> None:
+        """Every verb's caches in both slots brought up to date, but for those a verb refuses at the creatures' points
+        where no creature plays it (left until one does: the reference path never reads them either)."""
+        for v in range(len(self.graph.verbs)):
+            for slot in (0, 1):
+                if (v, slot) not in self._fresh:
+                    try:
+                        clocks._sampling(self.state, v, slot)
+                    except AdverbsError:
+                        continue
+                    self._fresh.add((v, slot))
 
     def _refresh(self) -> None:
         """Bring up to date the caches this frame reads: slot A of the verbs playing and being entered, slot B of the
@@ -238,14 +244,7 @@ class FramePass:
                 clocks._sampling(state, *pair)  # a point the verb refuses raises here, as on the reference path
                 self._fresh.add(pair)
         if same:
-            for v in range(len(self.graph.verbs)):
-                for slot in (0, 1):
-                    if (v, slot) not in self._fresh:
-                        try:
-                            clocks._sampling(state, v, slot)
-                        except AdverbsError:  # refused where no creature plays it: left until one does
-                            continue
-                        self._fresh.add((v, slot))
+            self._bring_up_to_date()
         self._version = state.cache_version
 
     def _needed(self) -> list[tuple[int, int]]:
@@ -260,7 +259,7 @@ class FramePass:
         heads = state.head[~moving]
         heads = heads[heads >= 0]
         if len(heads):
-            b |= np.bincount(self.tables.target[heads], minlength=n_v) > 0
+            b |= np.bincount(self.tables.transitions[1][heads], minlength=n_v) > 0  # their targets
         return [(int(v), 0) for v in np.flatnonzero(a)] + [(int(v), 1) for v in np.flatnonzero(b)]
 
     def step(self, dt: float, plant: bool = True) -> tuple[np.ndarray, np.ndarray]:
@@ -377,8 +376,6 @@ class Threads:
     the calling thread."""
 
     def __init__(self, threads: int | None = None):
-        import numba
-
         n = numba.config.NUMBA_NUM_THREADS if threads is None else int(threads)
         if n < 1:
             raise AdverbsError(f"threads must be at least 1, got {threads!r}")
