@@ -580,7 +580,9 @@ def test_the_compiled_blend_bookkeeping_is_the_numpy_one(bandai):
     w[2, 0] = 0.0
     root = rng.normal(size=(c, 3))
     got_root, got_trans = root.copy(), np.array(trans)
-    keep_feet(graph.skeleton.parents, tips, rows, w, rot, got_trans, shown_rot, shown_trans, body, graph.inverse_above_body, got_root)
+    n, free = len(rows), (np.zeros(len(rows)), np.full(len(rows), np.inf))  # any speed: the slip alone
+    keep_feet(graph.skeleton.parents, tips, rows, w, rot, got_trans, shown_rot, shown_trans, body, graph.inverse_above_body,
+              got_root, root, *free, DT)  # fmt: skip
     now = forward_kinematics(graph.skeleton.parents, rot[rows], trans[rows])[0][:, tips]
     was = forward_kinematics(graph.skeleton.parents, shown_rot[rows], shown_trans[rows])[0][:, tips]
     keep = w.sum(axis=1) > 0
@@ -593,6 +595,21 @@ def test_the_compiled_blend_bookkeeping_is_the_numpy_one(bandai):
     np.testing.assert_allclose(got_root, want_root, rtol=0, atol=1e-15)
     np.testing.assert_allclose(got_trans, want_trans, rtol=0, atol=1e-15)
     assert np.array_equal(got_root[rows[1]], root[rows[1]])
+    # At a speed asked for (a cosine blend's, player._speeds): the step from where the root was is that long, in the
+    # direction the slip gives; the body root's translation moves with it.
+    prev = root - rng.normal(0, 0.03, root.shape)
+    speed = rng.uniform(0.5, 3.0, n)
+    held_root, held_trans = root.copy(), np.array(trans)
+    keep_feet(graph.skeleton.parents, tips, rows, w, rot, held_trans, shown_rot, shown_trans, body,
+              graph.inverse_above_body, held_root, prev, speed, speed, DT)  # fmt: skip
+    step = held_root[rows, :2] - prev[rows, :2]
+    np.testing.assert_allclose(np.hypot(*step.T), speed * DT, rtol=1e-12, atol=0)
+    free_step = want_root[rows, :2] - prev[rows, :2]
+    np.testing.assert_allclose(step / np.hypot(*step.T)[:, None], free_step / np.hypot(*free_step.T)[:, None], rtol=0, atol=1e-12)
+    moved = held_root[rows] - root[rows]  # (x, z, heading): the slip (x, 0, z)
+    slip = np.stack([moved[:, 0], np.zeros(n), moved[:, 1]], axis=1)
+    np.testing.assert_allclose(held_trans[rows, body] - trans[rows, body], quat.rotate(graph.inverse_above_body, slip),
+                               rtol=0, atol=1e-15)  # fmt: skip
 
     off_rot, off_rot_vel = rng.normal(0, 0.3, (c, j, 3)), rng.normal(0, 2.0, (c, j, 3))
     off_trans, off_trans_vel = rng.normal(0, 0.05, (c, j, 3)), rng.normal(0, 0.5, (c, j, 3))

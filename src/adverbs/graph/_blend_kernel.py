@@ -20,11 +20,13 @@ from ..feet._planting_scalars import spring
 
 
 @njit(cache=True)
-def keep_feet(parents, tips, rows, weights, rot, trans, shown_rot, shown_trans, body, above_inv, root):  # pragma: no cover
+def keep_feet(parents, tips, rows, weights, rot, trans, shown_rot, shown_trans, body, above_inv, root, prev, lo, hi,
+              dt):  # pragma: no cover  # fmt: skip
     """For each creature ``rows[i]`` with foot weights ``weights[i] (L,)`` (unless they sum to zero): the weighted mean
     horizontal slip ``was − now`` of its feet ``tips (L,)`` between the pose shown before (``shown_rot``,
     ``shown_trans``) and this one (``rot``, ``trans``), added to its ``root (C, 3)`` = ``(x, z, heading)`` and, in
-    the frame above the body root (``above_inv``, the inverse of its rest rotation), to the body root's translation."""
+    the frame above the body root (``above_inv``, the inverse of its rest rotation), to the body root's translation;
+    the root's step from ``prev (C, 3)`` held to ``lo[i]`` to ``hi[i]`` m/s (see :func:`keep_feet_row`)."""
     n_j = parents.shape[0]
     now_pos, now_rot = np.empty((1, n_j, 3)), np.empty((1, n_j, 4))
     was_pos, was_rot = np.empty((1, n_j, 3)), np.empty((1, n_j, 4))
@@ -32,30 +34,45 @@ def keep_feet(parents, tips, rows, weights, rot, trans, shown_rot, shown_trans, 
         c = rows[i]
         keep_feet_row(
             parents, tips, weights[i], rot[c : c + 1], trans[c : c + 1], shown_rot[c : c + 1], shown_trans[c : c + 1],
-            body, above_inv, root[c], now_pos, now_rot, was_pos, was_rot,
+            body, above_inv, root[c], now_pos, now_rot, was_pos, was_rot, prev[c, 0], prev[c, 1], lo[i], hi[i], dt,
         )  # fmt: skip
 
 
 @njit(cache=True, inline="always")
 def keep_feet_row(parents, tips, weights, rot, trans, shown_rot, shown_trans, body, above_inv, root, now_pos, now_rot,
-                  was_pos, was_rot):  # pragma: no cover  # fmt: skip
+                  was_pos, was_rot, x0, z0, lo, hi, dt):  # pragma: no cover  # fmt: skip
     """One creature of :func:`keep_feet`: its pose ``rot (1, J, 4)``, ``trans (1, J, 3)``, the one shown before, its
-    ``root (3,)``; ``now_*``, ``was_*``: forward kinematics' scratch ``(1, J, 3)``, ``(1, J, 4)``."""
+    ``root (3,)``; ``now_*``, ``was_*``: forward kinematics' scratch ``(1, J, 3)``, ``(1, J, 4)``.
+
+    The root's step from ``(x0, z0)`` is then held to ``lo`` to ``hi`` m/s (a cosine blend of two verbs: the
+    blend of their own speeds, ``α |v_A| + (1 − α) |v_B|``, so the body slows from a run to a walk as the blend
+    says; otherwise ``0`` and ``inf``): where the verbs stand their held feet at different places under the body,
+    carrying it by the whole slip braked a run nearly to a standstill on its way into a walk, and threw a start
+    past the walk's speed. The legs take up the rest (the planter holds the feet).
+    """
     total = 0.0
     for k in range(tips.shape[0]):
         total += weights[k]
-    if not total > 0.0:  # no foot held in both frames: nothing to keep
-        return
-    forward(parents, rot, trans, now_pos, now_rot)
-    forward(parents, shown_rot, shown_trans, was_pos, was_rot)
     sx = 0.0
     sz = 0.0
-    for k in range(tips.shape[0]):
-        w = weights[k]
-        sx += w * (was_pos[0, tips[k], 0] - now_pos[0, tips[k], 0])
-        sz += w * (was_pos[0, tips[k], 2] - now_pos[0, tips[k], 2])
-    sx /= total
-    sz /= total
+    if total > 0.0:  # feet held in both frames: the body carried by their slip
+        forward(parents, rot, trans, now_pos, now_rot)
+        forward(parents, shown_rot, shown_trans, was_pos, was_rot)
+        for k in range(tips.shape[0]):
+            w = weights[k]
+            sx += w * (was_pos[0, tips[k], 0] - now_pos[0, tips[k], 0])
+            sz += w * (was_pos[0, tips[k], 2] - now_pos[0, tips[k], 2])
+        sx /= total
+        sz /= total
+    dx = root[0] + sx - x0
+    dz = root[1] + sz - z0
+    d = math.sqrt(dx * dx + dz * dz)
+    if d > hi * dt or (d < lo * dt and d > 1e-12):
+        f = min(max(d, lo * dt), hi * dt) / d
+        sx = x0 + dx * f - root[0]
+        sz = z0 + dz * f - root[1]
+    if sx == 0.0 and sz == 0.0:
+        return
     root[0] += sx
     root[1] += sz
     x, y, z, w = above_inv[0], above_inv[1], above_inv[2], above_inv[3]

@@ -19,6 +19,7 @@ from ..kinematics.floor import Floor
 from ..motion.clip import Clip
 from ..feet.offline import PlantingReport, report_of_modes
 from ..verb.synthesis import MAX_FPS, plan
+from .easing import EASE, Easing
 from .planted import plant, planter
 from .player import first_frame, step
 from .queue import command
@@ -73,6 +74,7 @@ def perform(
     root: Sequence[float] = (0.0, 0.0, 0.0),
     from_start: bool = False,
     planned: bool = False,
+    ease: float = EASE,
 ) -> Performance:
     """Play ``seconds`` of one creature through ``graph`` at ``fps``, following ``script``; plant its feet on ``floor``
     (default: flat, at the level of the first verb that holds feet).
@@ -86,6 +88,9 @@ def perform(
     (:func:`~adverbs.verb.synthesis.plan`, which :func:`repeat` calls), so ``synth`` gives one answer whatever
     the number of cycles; otherwise they are held to a graph's range (:meth:`Graph.check_point`), at most
     ``MAX_SECONDS`` and 1 to ``MAX_FPS`` frames a second.
+
+    An adverb cue eases from the point shown to the one asked for over ``ease`` seconds (smoothstep; 0: at once),
+    as the run time's adverb changes do, so a cue during a gesture does not snap its pose.
     """
     if planned:
         point = graph.point(adverbs)
@@ -107,6 +112,7 @@ def perform(
     playing, active, verb = [], np.empty(frames, dtype=np.int64), np.empty(frames, dtype=np.int64)
     legs = len(feet.tips) if feet is not None else 0
     modes, turns, drops = np.zeros((frames, legs), dtype=np.int64), np.zeros((frames, legs)), np.zeros(frames)
+    easing = Easing(state.points)
     refused: list[tuple[float, str]] = []
     outcomes: list[list] = []  # per cue: [time, words, what became of it]
     waiting: int | None = None  # the cue whose verb has not played alone yet
@@ -120,8 +126,8 @@ def perform(
             outcomes.append([cue.time, _words(cue), "ran"])
             try:
                 if cue.adverbs:
-                    p = graph.point({**dict(zip(graph.adverb_names, state.points[0])), **cue.adverbs})
-                    state.points[0] = graph.check_point(p)
+                    p = graph.point({**dict(zip(graph.adverb_names, easing.to[0])), **cue.adverbs})
+                    easing.set(0, state.points[0], graph.check_point(p), now, ease, state.points)
                     outcomes[-1][2] = "adverbs set"
                 if cue.verb is not None:
                     arrived = len(state.latencies)
@@ -138,7 +144,9 @@ def perform(
                 done = "adverbs set; " if outcomes[-1][2] == "adverbs set" else ""  # the verb refused, its adverbs kept
                 outcomes[-1][2] = f"{done}refused: {e}"
         before = len(state.latencies)
-        frame = first_frame(state) if from_start and f == 0 else step(state, dt)
+        first = from_start and f == 0
+        easing.apply(state.points, now if first else now + dt)
+        frame = first_frame(state) if first else step(state, dt)
         free_rot[f], free_trans[f] = frame.rotations[0], frame.translations[0]
         if feet is not None:
             r, t, result = plant(feet, frame, dt, state.alone)

@@ -26,7 +26,8 @@ class GraphFeet:
     A foot held across verbs that stand it in different places (a stand with the feet apart, then a walk)
     ends up held where the verb playing does not have it, and the leg stretches. Such a foot, once a verb
     plays alone and it is ``REPLANT`` away, is let go (the planter's inertialized release: it lifts, then
-    glides) and held again once it has come within ``REPLANTED`` of where the verb puts it.
+    travels, at least the planter's least swing lift over the floor, so it steps rather than glides) and held
+    again once it has come within ``REPLANTED`` of where the verb puts it.
     """
 
     planter: FootPlanter
@@ -71,7 +72,8 @@ def plant(feet: GraphFeet, frame: Frame, dt: float, alone: np.ndarray | None = N
     """
     p = feet.planter
     held = frame.held & ~feet.replanting
-    out = p.step(frame.rotations, frame.translations, None, dt, (held, frame.roll, frame.swing))
+    swing = np.where(feet.replanting, 1.0, frame.swing)  # a foot re-placed steps: it swings at the least lift
+    out = p.step(frame.rotations, frame.translations, None, dt, (held, frame.roll, swing))
     if feet.replanting.any():
         settled = np.linalg.norm(p._offset(), axis=-1) < REPLANTED
         feet.replanting &= ~((p.mode == FREE) & settled & (p.since[..., 0] > 0))

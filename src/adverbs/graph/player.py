@@ -24,7 +24,7 @@ and a generic time ``g`` in it — or is in a transition from one instance (A) t
   the weight climbs back by the same cosine law); otherwise B plays on alone from the pose shown (an
   offset, half-life at least ``INTERRUPT_HALFLIFE``) and the new path starts from B — at once, and
   inertially, when B is a one-shot verb whose way on is already open.
-* **Feet.** A foot both verbs hold stays held; blending two stances would slide it, so the body is
+* **Feet.** In a cosine blend a foot is held where both verbs hold it, or A does and still has the weight (:func:`hold_phases`); a foot both verbs hold stays held; blending two stances would slide it, so the body is
   carried by the held feet's slip instead (:func:`_keep_feet`). :class:`GraphFeet` re-places a foot a
   verb playing alone has somewhere else (``REPLANT``).
 * **Cycles.** A cyclic verb instance plays one cycle; its loop into itself is a transition like any
@@ -63,6 +63,8 @@ from .structure import Graph
 from .clocks import _by_verb, _clock, _generic, _hold_times, _later, _place, _rates, _sampling, blend_weight
 from .queue import _finish, _start
 from .state import _LATE, GraphState
+
+LANDS = 1.0  # a foot B holds lands once the swing lift of A, which swings it, has faded below this (A lands it)
 
 
 @dataclass
@@ -281,7 +283,7 @@ def _step(state: GraphState, dt: float) -> Frame:
     blended = np.zeros(state.creatures, dtype=bool)
     blended[live] = True
     state.alone = (state.active < 0) & ~blended
-    new_root = _keep_feet(state, rot, trans, new_root, held, roll, blended)
+    new_root = _keep_feet(state, rot, trans, new_root, held, roll, blended, _speeds(state, base), dt)
     vel = _velocity(state.root, new_root, dt)
     state.root = new_root
     state.shown_before, state.shown = state.shown, (rot, trans, vel)
@@ -313,9 +315,26 @@ def _velocity(old: np.ndarray, new: np.ndarray, dt: float) -> np.ndarray:
     return out
 
 
+def _speeds(state: GraphState, base: _Base) -> np.ndarray:
+    """The speed ``(C,)`` (m/s) the body of a creature in a cosine blend goes at: the blend of the two verbs' own
+    horizontal speeds, ``α |v_A| + (1 − α) |v_B|`` (each at its own clock, as it goes alone); others ``nan``."""
+    n = state.creatures
+    out = np.full(n, np.nan)
+    rows = np.flatnonzero((state.active >= 0) & ~state.inertial)
+    if len(rows) == 0:
+        return out
+    speed_a, speed_b = np.zeros(n), np.zeros(n)
+    for sel, d in base.a.values():
+        speed_a[sel] = np.hypot(d[:, 0], d[:, 1])
+    for sel, d in base.b.values():
+        speed_b[sel] = np.hypot(d[:, 0], d[:, 1])
+    out[rows] = base.alpha[rows] * speed_a[rows] + (1.0 - base.alpha[rows]) * speed_b[rows]
+    return out
+
+
 def _keep_feet(
     state: GraphState, rot: np.ndarray, trans: np.ndarray, root: np.ndarray, held: np.ndarray, roll: np.ndarray,
-    offset: np.ndarray,
+    offset: np.ndarray, speed: np.ndarray, dt: float,
 ) -> np.ndarray:  # fmt: skip
     """Roots ``(C, 3)`` of creatures in a cosine blend, or with a decaying ``offset (C,)``, moved so the feet their
     verbs hold stay where they were shown.
@@ -326,7 +345,9 @@ def _keep_feet(
     ``trans`` (the body root's) is moved with it, in place. A verb's loop into itself blends two instances of one
     verb, which keep their feet alike: its root is the verb's own, so it turns and travels as the verb does. A
     decaying offset (an inertial blend, an interruption) moves the legs as a blend does, and the body is carried
-    the same way.
+    the same way. In a cosine blend the carried body goes at ``speed (C,)`` m/s (:func:`_speeds`), in the
+    direction the slip gives: carried by the whole slip, a run braked nearly to a standstill on its way into a
+    walk, then lurched on (the planter's IK takes up the rest).
     """
     if state.shown is None or state.held_before is None:
         return root
@@ -337,9 +358,11 @@ def _keep_feet(
     w = np.ascontiguousarray((held & state.held_before)[rows] * (1.0 - roll[rows]))
     graph = state.graph
     root = root.copy()
+    cosine = ((state.active >= 0) & ~state.inertial & state.graph.between_verbs[state.active])[rows]
     keep_feet(
         graph.skeleton.parents, graph.feet_array, rows, w, rot, trans, state.shown[0], state.shown[1],
-        graph.verbs[0].encoding.body_root, graph.inverse_above_body, root,
+        graph.verbs[0].encoding.body_root, graph.inverse_above_body, root, state.root,
+        np.where(cosine, speed[rows], 0.0), np.where(cosine, speed[rows], np.inf), dt,
     )  # fmt: skip
     return root
 
@@ -349,9 +372,13 @@ def hold_phases(state: GraphState) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     how much of the least swing lift a free foot keeps under it (:func:`adverbs.feet.planter.swing_lifts`).
 
     A verb instance holds a foot as its own hold says at its generic time (the examples' contact times at its
-    adverbs); a verb without a hold on that foot never holds it. In a cosine blend a foot is held only where
-    both verbs hold it (released by either, released), has rolled as far as the further of the two, and keeps
-    the lesser swing lift (the verb that lands it sooner puts it down).
+    adverbs); a verb without a hold on that foot never holds it. In a cosine blend a foot is held where A holds it
+    and B does too, or A still has the weight (``α ≥ 0.5``): a start's first foot stays down until the walk has the
+    weight, then lifts, instead of being drawn backwards along the floor; a stop's swinging foot stays free until
+    the walk itself lands it. A foot both hold has rolled as far as the further of the two (else the roll of the
+    verb with the weight). A free foot keeps the swing lift of the verb that swings it (both: the lesser, as the
+    verb that lands it sooner puts it down), so a blend with a verb standing on that foot does not draw the swing
+    down to the floor: a stop's swinging foot swings as the walk's does and lands as it lands.
     """
     graph = state.graph
     c = state.creatures
@@ -376,7 +403,11 @@ def hold_phases(state: GraphState) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     else:
         return ha, ra, sa
     alone = state.active < 0
-    held = np.where(alone[:, None], ha, np.where(inertial[:, None], hb, ha & hb))
-    roll = np.where(alone[:, None], ra, np.where(inertial[:, None], rb, np.maximum(ra, rb)))
-    swing = np.where(alone[:, None], sa, np.where(inertial[:, None], sb, np.minimum(sa, sb)))
+    first = (blend_weight(state.beta) >= 0.5)[:, None]
+    major = (ha & (hb | first)) | (hb & ~ha & (sa < LANDS))
+    both = ha & hb
+    held = np.where(alone[:, None], ha, np.where(inertial[:, None], hb, major))
+    roll = np.where(alone[:, None], ra, np.where(inertial[:, None], rb, np.where(both, np.maximum(ra, rb), np.where(first, ra, rb))))
+    lift = np.where(ha & ~hb, sb, np.where(hb & ~ha, sa, np.minimum(sa, sb)))  # the lift of the verb swinging it
+    swing = np.where(alone[:, None], sa, np.where(inertial[:, None], sb, lift))
     return held, roll, swing

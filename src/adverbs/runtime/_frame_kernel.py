@@ -52,7 +52,7 @@ from ..verb._sampling_kernel import GENERIC, VELOCITIES, goal_weight, phase, que
 STARTED, FINISHED = 1, 2  # events: a transition started, or finished, this frame
 FREE, BALL = 0, 2  # planting.FREE, planting.BALL
 # Where each constant sits in ``k_`` (see frame.FramePass).
-_LATE, _MIN_DURATION, _INERTIAL, _LN2, _REPLANT, _REPLANTED, _SWING, _LIFT = range(8)
+_LATE, _MIN_DURATION, _INERTIAL, _LN2, _REPLANT, _REPLANTED, _SWING, _LIFT, _LANDS = range(9)
 
 
 # ----- the tables, packed: per verb, a slice of a flat array (see frame.tables and FramePass) ------------------
@@ -394,31 +394,42 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
     if live:
         decay_row(offset_since[c], offset_halflife[c], offset_rot[c], offset_rot_vel[c], offset_trans[c],
                   offset_trans_vel[c], rot[c], trans[c], k_[_LN2])  # fmt: skip
-    # Hold phases: A's, B's, or both (held only where both hold it).
+    # Hold phases: A's, B's, or in a cosine blend A's while it has the weight, then both's (player.hold_phases).
     is_moving = active[c] >= 0
     inert = is_moving and inertial[c]
     if not inert:
         _phases(verb[c], 0, c, g[c], verbs, caches, held[c], roll[c], swing[c])
     if is_moving:
         _phases(into[c], 1, c, g_into[c], verbs, caches, hb, rb, sb)
+        first = alpha >= 0.5
         for i in range(hb.shape[0]):
             if inert:
                 held[c, i], roll[c, i], swing[c, i] = hb[i], rb[i], sb[i]
             else:
-                held[c, i] = held[c, i] and hb[i]
-                roll[c, i] = max(roll[c, i], rb[i])
-                swing[c, i] = min(swing[c, i], sb[i])
+                ha, ra, sa = held[c, i], roll[c, i], swing[c, i]
+                held[c, i] = (ha and (hb[i] or first)) or (hb[i] and not ha and sa < k_[_LANDS])
+                if ha and hb[i]:
+                    roll[c, i] = max(ra, rb[i])
+                elif not first:
+                    roll[c, i] = rb[i]
+                if ha and not hb[i]:
+                    swing[c, i] = sb[i]
+                elif not (hb[i] and not ha):
+                    swing[c, i] = min(sa, sb[i])
     alone[c] = not is_moving and not live
     # The body carried by the held feet's slip in a blend (player._keep_feet).
     root[c, 0], root[c, 1], root[c, 2] = x1, z1, h1
     if has_shown and has_held_before:
-        blending = live or (is_moving and not inertial[c] and transitions[3][active[c]])
-        if blending:
+        cosine = is_moving and not inertial[c] and transitions[3][active[c]]
+        if live or cosine:
             for i in range(feet.shape[0]):
                 wts[i] = (1.0 if (held[c, i] and held_before[c, i]) else 0.0) * (1.0 - roll[c, i])
+            lo, hi = 0.0, np.inf  # in a cosine blend the blend of the verbs' own speeds (player._speeds), else any
+            if cosine:
+                lo = hi = alpha * math.hypot(d_a[0], d_a[1]) + (1.0 - alpha) * math.hypot(d_b[0], d_b[1])
             keep_feet_row(
                 parents, feet, wts, rot[c : c + 1], trans[c : c + 1], shown_rot[c : c + 1], shown_trans[c : c + 1], body,
-                above_inv, root[c], fk_now_pos, fk_now_rot, fk_was_pos, fk_was_rot,
+                above_inv, root[c], fk_now_pos, fk_now_rot, fk_was_pos, fk_was_rot, x0, z0, lo, hi, dt,
             )  # fmt: skip
     vel_out[c, 0], vel_out[c, 1], vel_out[c, 2] = root_velocity_row(x0, z0, h0, root[c, 0], root[c, 1], root[c, 2], dt)
     for i in range(feet.shape[0]):
@@ -501,6 +512,8 @@ def _plant(lo, hi, outputs, planted, feet, start, any_replanting, k_):  # pragma
     for c in range(lo, hi):
         for i in range(n_l):
             inside[c, i] = held[c, i] and not replanting[c, i]
+            if replanting[c, i]:  # a foot re-placed steps: it swings at the least lift, not along the floor
+                swing[c, i] = 1.0
     s = slice(lo, hi)
     sliced = (
         st[0][s], st[1][s], st[2][s], st[3][s], st[4][s], st[5][s], st[6][s], st[7][s], st[8][s], st[9][s], st[10][s],

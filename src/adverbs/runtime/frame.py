@@ -32,7 +32,7 @@ import numpy as np
 import numba
 
 from ..errors import AdverbsError
-from ..graph import clocks, planted, queue, state as graph_state
+from ..graph import clocks, planted, player, queue, state as graph_state
 from ..graph.planted import GraphFeet
 from ..graph.state import GraphState, sync_head
 from ..graph.structure import Graph
@@ -125,7 +125,7 @@ def _constants() -> np.ndarray:
     """The kernel's constants ``k_`` (see ``_frame_kernel``)."""
     return np.array([
         graph_state._LATE, graph_state.MIN_DURATION, graph_state.INERTIAL_HALFLIFE, planting._LN2, planted.REPLANT,
-        planted.REPLANTED, planting.SWING_HALFLIFE, planting.LIFT_HALFLIFE,
+        planted.REPLANTED, planting.SWING_HALFLIFE, planting.LIFT_HALFLIFE, player.LANDS,
     ])  # fmt: skip
 
 

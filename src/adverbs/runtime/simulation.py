@@ -37,6 +37,7 @@ import numpy as np
 
 from ..errors import AdverbsError, AdverbsWarning
 from ..limits import check_frames
+from ..graph.easing import EASE, Easing
 from ..graph.planted import GraphFeet, plant, planter
 from ..graph.player import step
 from ..graph.queue import command
@@ -50,16 +51,10 @@ from .events import NORMAL, SYNC, EventQueue, Processed, VirtualClock, WallClock
 from .frame import FramePass, supported
 from .recording import EventLog, Folder, Spool
 
-EASE = 0.5  # seconds: how long an adverb change takes by default
 MARGIN = 1.25  # the frame interval on the wall clock is at least this many times the measured render cost
 MIN_FPS = 2.0  # the wall clock's frame rate never drops below this (a render slower than that lags)
 COST_SMOOTHING = 0.3  # weight of the newest render cost in its running mean
 MAX_SECONDS = 24 * 3600.0
-
-
-def _smoothstep(s: np.ndarray) -> np.ndarray:
-    s = np.clip(s, 0.0, 1.0)
-    return s * s * (3.0 - 2.0 * s)
 
 
 @dataclass(eq=False)
@@ -75,10 +70,7 @@ class _Group:
     state: GraphState | None = None
     feet: GraphFeet | None = None
     frame: FramePass | None = None  # the compiled frame (None: the reference path, player.step and plant)
-    ease_from: np.ndarray | None = None
-    ease_to: np.ndarray | None = None
-    ease_start: np.ndarray | None = None
-    ease_over: np.ndarray | None = None
+    easing: Easing | None = None
     rotations: np.ndarray | None = None
     translations: np.ndarray | None = None
     spool: Spool | None = None  # the frames shown, kept on disk (recording.Spool), and the planter's modes and turns
@@ -388,19 +380,14 @@ class Simulation:
             if isinstance(x, bool) or not isinstance(x, int | float | np.number):
                 raise CommandRefused(f"adverb {k!r} must be a number, got {x!r}")
         i = creature.index
-        target = (g.ease_to[i] if g.state is not None else g.points[i]).copy()
+        target = (g.easing.to[i] if g.state is not None else g.points[i]).copy()
         for k, x in values.items():
             target[graph.adverb_names.index(k)] = float(x)
         graph.check_point(target, REACH)
         if g.state is None:  # before the first frame: nothing shown yet to ease from
             g.points[i] = target
             return
-        g.ease_from[i] = g.state.points[i]
-        g.ease_to[i] = target
-        g.ease_start[i] = t
-        g.ease_over[i] = over
-        if over == 0.0:
-            g.state.points[i] = target
+        g.easing.set(i, g.state.points[i], target, t, over, g.state.points)
 
     # ----- running -----------------------------------------------------------------------------------
     def _start(self) -> None:
@@ -417,8 +404,7 @@ class Simulation:
                 g.feet = planter(g.graph, g.size, self.floor)
             if self.compiled and supported(g.graph) is None and (g.feet is None or g.feet.planter._compiled is not None):
                 g.frame = FramePass(g.state, g.feet)
-            g.ease_from, g.ease_to = points.copy(), points.copy()
-            g.ease_start, g.ease_over = np.zeros(g.size), np.zeros(g.size)
+            g.easing = Easing(points)
         self._started = True
         for creature, verb, stay in self._pending:
             command(creature._group.state, creature.index, verb, stay)
@@ -510,13 +496,7 @@ class Simulation:
 
     def _step_group(self, g: _Group, t: float, dt: float) -> None:
         s = g.state
-        easing = np.flatnonzero(g.ease_over > 0)
-        if len(easing):
-            u = _smoothstep((t - g.ease_start[easing]) / g.ease_over[easing])
-            s.points[easing] = g.ease_from[easing] + u[:, None] * (g.ease_to[easing] - g.ease_from[easing])
-            done = easing[u >= 1.0]
-            g.ease_over[done] = 0.0
-            s.points[done] = g.ease_to[done]
+        g.easing.apply(s.points, t)
         before = g.shown_active if g.shown_active is not None else np.full(g.size, -1)
         if g.frame is not None:  # one compiled pass
             g.rotations, g.translations = g.frame.step(dt, plant=self._plant)

@@ -1,0 +1,132 @@
+"""Motion at the edges of verbs (issue 32), measured on the frames a performance writes, never on the planter's state.
+
+A foot low on the floor must not travel: at a stop the swinging foot lands where it is (it used to skid 23-57 cm
+along the floor), at a start the first foot lifts before it travels (it dragged 11-15 cm backwards). The bound is
+the walk's own: a toe pivoting on its ball moves a few centimetres while low in the capture too, so a transition
+may move a low toe as far as the walk alone does, plus 2 cm. An adverb cue during a gesture eases in instead of
+snapping the pose in one frame.
+
+The scripts and adverb points here are not the ones the changes were tuned on (the report's runs A, B and C).
+"""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from adverbs import load_graph
+from adverbs.errors import AdverbsWarning
+from adverbs.graph.performance import Cue, perform
+from adverbs.kinematics import quat
+
+GRAPHS = Path(__file__).resolve().parent.parent / "graphs"
+LOW = 0.02  # metres over the toe's contact height: "on the floor"
+FPS = 30.0
+
+
+@pytest.fixture(scope="module")
+def bandai():
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", AdverbsWarning)
+        return load_graph(GRAPHS / "bandai.toml")
+
+
+def _toes(graph):
+    names = graph.skeleton.names
+    return [names.index(n) for n in ("Toes_L", "Toes_R")]
+
+
+def low_travel(positions: np.ndarray, contact: np.ndarray, frames: np.ndarray) -> float:
+    """The longest way (m) a toe goes across the floor over consecutive ``frames`` while within :data:`LOW` of its
+    contact height: ``positions (F, T, 3)`` of T toes, ``contact (T,)``."""
+    best = 0.0
+    for i in range(positions.shape[1]):
+        travel = 0.0
+        for f in frames:
+            if f == 0:
+                continue
+            if positions[f, i, 1] - contact[i] < LOW:
+                travel += float(np.hypot(*(positions[f, i, [0, 2]] - positions[f - 1, i, [0, 2]])))
+                best = max(best, travel)
+            else:
+                travel = 0.0
+    return best
+
+
+def _windows(perf, graph, pairs):
+    """Frames ``(a, b)`` of every transition of ``perf`` whose (source, target) names are in ``pairs``, with the
+    frames after it until the next transition (at most half a second), where a landing settles."""
+    names = graph.verb_names
+    out, f = [], 0
+    active = perf.active
+    while f < len(active):
+        if active[f] < 0:
+            f += 1
+            continue
+        k, a = active[f], f
+        while f < len(active) and active[f] == k:
+            f += 1
+        t = graph.transitions[k]
+        if (names[t.source], names[t.target]) in pairs:
+            end = f
+            while end < min(len(active), f + int(FPS / 2)) and active[end] < 0:
+                end += 1
+            out.append((names[t.source], names[t.target], a, end))
+    return out
+
+
+def _contact(positions):
+    return np.percentile(positions[:, :, 1], 1, axis=0)
+
+
+@pytest.mark.parametrize(
+    "seed, adverbs",
+    [(5, {"valence": 0.2, "energy": 0.3, "turn": 10.0}), (8, {"valence": -0.6, "energy": -0.4, "turn": -25.0}), (13, {})],
+)
+def test_stops_land_the_swinging_foot_and_starts_lift_the_first(bandai, seed, adverbs):
+    cues = [Cue(t, v) for t, v in [(0.3, "walk"), (4.1, "idle"), (6.7, "walk"), (10.2, "idle"), (12.9, "walk"), (16.4, "idle")]]
+    perf = perform(bandai, cues, seconds=19.0, seed=seed, adverbs=adverbs)
+    toes = _toes(bandai)
+    pos = perf.planted.global_positions()[:, toes]
+    contact = _contact(pos)
+    # The walk's own: the same measure over three of its cycles alone, at the same adverbs.
+    alone = perform(bandai, [Cue(0.0, "walk")], seconds=8.0, seed=seed, adverbs=adverbs)
+    walking = np.flatnonzero((alone.active < 0) & (alone.verb == bandai.verb_index("walk")))
+    own_pos = alone.planted.global_positions()[:, toes]
+    own = low_travel(own_pos, _contact(own_pos), walking[walking > 90])
+    windows = _windows(perf, bandai, {("walk", "idle"), ("idle", "walk")})
+    kinds = {(s, t) for s, t, _, _ in windows}
+    assert kinds == {("walk", "idle"), ("idle", "walk")}, f"the script should stop and start the walk: {windows}"
+    failures = []
+    for s, t, a, b in windows:
+        travel = low_travel(pos, contact, np.arange(a, b))
+        if travel > own + 0.02:
+            failures.append(f"{s}→{t} at {a / FPS:.2f} s: a low toe travels {travel * 1000:.0f} mm (the walk's own {own * 1000:.0f})")
+    assert not failures, "\n".join(failures)
+
+
+def _angular_speed(rotations: np.ndarray) -> np.ndarray:
+    """Each joint's angular speed between frames ``(F − 1, J)``, rad/s."""
+    q = quat.mul(rotations[1:], quat.inv(rotations[:-1]))
+    return 2.0 * np.arccos(np.clip(np.abs(q[..., 3]), 0.0, 1.0)) * FPS
+
+
+def test_an_adverb_cue_during_a_gesture_eases_in(bandai):
+    """``16:valence=0.9`` during a sad bow turned a hand 1,320 deg/s in one frame; eased over half a second it stays
+    within 1.5x the bow's own fastest joint (the bow alone, at either valence)."""
+    bow = [Cue(2.0, adverbs={"valence": 0.9})]
+    own = max(
+        _angular_speed(perform(bandai, [], seconds=3.5, start="bow", adverbs={"valence": v}).planted.rotations).max()
+        for v in (-0.8, 0.9)
+    )
+    cue = int(2.0 * FPS)
+    eased = perform(bandai, bow, seconds=3.5, start="bow", adverbs={"valence": -0.8})
+    assert eased.playing[cue].startswith("bow"), eased.playing[cue]
+    fastest = _angular_speed(eased.planted.rotations)[cue - 2 : cue + 30].max()
+    assert fastest <= 1.5 * own, (np.degrees(fastest), np.degrees(own))
+    # At once (ease=0), as it was: the cue snaps the pose, which this test would see.
+    snapped = perform(bandai, bow, seconds=3.5, start="bow", adverbs={"valence": -0.8}, ease=0.0)
+    assert _angular_speed(snapped.planted.rotations)[cue - 2 : cue + 30].max() > 1.5 * own
