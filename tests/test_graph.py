@@ -596,7 +596,8 @@ def test_the_compiled_blend_bookkeeping_is_the_numpy_one(bandai):
     np.testing.assert_allclose(got_trans, want_trans, rtol=0, atol=1e-15)
     assert np.array_equal(got_root[rows[1]], root[rows[1]])
     # At a speed asked for (a cosine blend's, player._speeds): the step from where the root was is that long, in the
-    # direction the slip gives; the body root's translation moves with it.
+    # direction of the root's own advance (the verbs' velocities, not the slip); the body root's translation moves
+    # with it.
     prev = root - rng.normal(0, 0.03, root.shape)
     speed = rng.uniform(0.5, 3.0, n)
     held_root, held_trans = root.copy(), np.array(trans)
@@ -604,8 +605,8 @@ def test_the_compiled_blend_bookkeeping_is_the_numpy_one(bandai):
               graph.inverse_above_body, held_root, prev, speed, speed, DT)  # fmt: skip
     step = held_root[rows, :2] - prev[rows, :2]
     np.testing.assert_allclose(np.hypot(*step.T), speed * DT, rtol=1e-12, atol=0)
-    free_step = want_root[rows, :2] - prev[rows, :2]
-    np.testing.assert_allclose(step / np.hypot(*step.T)[:, None], free_step / np.hypot(*free_step.T)[:, None], rtol=0, atol=1e-12)
+    advance = root[rows, :2] - prev[rows, :2]
+    np.testing.assert_allclose(step / np.hypot(*step.T)[:, None], advance / np.hypot(*advance.T)[:, None], rtol=0, atol=1e-12)
     moved = held_root[rows] - root[rows]  # (x, z, heading): the slip (x, 0, z)
     slip = np.stack([moved[:, 0], np.zeros(n), moved[:, 1]], axis=1)
     np.testing.assert_allclose(held_trans[rows, body] - trans[rows, body], quat.rotate(graph.inverse_above_body, slip),

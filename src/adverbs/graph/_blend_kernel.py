@@ -44,11 +44,10 @@ def keep_feet_row(parents, tips, weights, rot, trans, shown_rot, shown_trans, bo
     """One creature of :func:`keep_feet`: its pose ``rot (1, J, 4)``, ``trans (1, J, 3)``, the one shown before, its
     ``root (3,)``; ``now_*``, ``was_*``: forward kinematics' scratch ``(1, J, 3)``, ``(1, J, 4)``.
 
-    The root's step from ``(x0, z0)`` is then held to ``lo`` to ``hi`` m/s (a cosine blend of two verbs: the
-    blend of their own speeds, ``α |v_A| + (1 − α) |v_B|``, so the body slows from a run to a walk as the blend
-    says; otherwise ``0`` and ``inf``): where the verbs stand their held feet at different places under the body,
-    carrying it by the whole slip braked a run nearly to a standstill on its way into a walk, and threw a start
-    past the walk's speed. The legs take up the rest (the planter holds the feet).
+    The root's step from ``(x0, z0)`` is then held to ``lo`` to ``hi`` m/s, along the root's advance by the
+    blended velocities (``0`` and ``inf``: any). In a cosine blend of two verbs the graph holds it to the faster
+    verb's own speed: carried by the whole slip of feet the verbs stand at different places under the body, a
+    start threw the body past the walk's speed. The legs take up the rest (the planter holds the feet).
     """
     total = 0.0
     for k in range(tips.shape[0]):
@@ -67,10 +66,18 @@ def keep_feet_row(parents, tips, weights, rot, trans, shown_rot, shown_trans, bo
     dx = root[0] + sx - x0
     dz = root[1] + sz - z0
     d = math.sqrt(dx * dx + dz * dz)
-    if d > hi * dt or (d < lo * dt and d > 1e-12):
-        f = min(max(d, lo * dt), hi * dt) / d
-        sx = x0 + dx * f - root[0]
-        sz = z0 + dz * f - root[1]
+    if d > hi * dt or d < lo * dt:  # along the verbs' own way (the root's advance), else the slip's
+        ax, az = root[0] - x0, root[1] - z0
+        a = math.sqrt(ax * ax + az * az)
+        if a > 1e-12:
+            ux, uz = ax / a, az / a
+        elif d > 1e-12:
+            ux, uz = dx / d, dz / d
+        else:
+            ux, uz = 0.0, 0.0
+        m = min(max(d, lo * dt), hi * dt)
+        sx = x0 + ux * m - root[0]
+        sz = z0 + uz * m - root[1]
     if sx == 0.0 and sz == 0.0:
         return
     root[0] += sx

@@ -102,8 +102,11 @@ def _start(state: GraphState, c: int, late: float, inertial: bool = False) -> No
     a, b = graph.verbs[t.source], graph.verbs[t.target]
     (sa, ea), (sb, eb) = t.source_region, t.target_region
     g = float(state.g[c])
+    whole = False  # B's region played whole, at no more than its own speed
     if g > sa + _LATE:  # the region has begun already (a one-shot verb past it, or a loop begun late)
-        if g < ea:
+        if not a.cyclic:  # what is left of A's region blends into the whole of B's, from where B's begins
+            sa, ea, whole = g, max(ea, g), True
+        elif g < ea:
             sb += (g - sa) / (ea - sa) * (eb - sb)
             sa = g
         else:
@@ -114,6 +117,8 @@ def _start(state: GraphState, c: int, late: float, inertial: bool = False) -> No
     keys_a = _sampling(state, t.source, 0).keytimes[row]
     keys_b = _sampling(state, t.target, 1).keytimes[row]
     length = float(duration((sa, ea), (sb, eb), keys_a, keys_b, a.generic_keytimes, b.generic_keytimes)[0])
+    if whole:  # not shorter than B's region: B's clock never runs faster than its own
+        length = max(length, float(duration((sb, eb), (sb, eb), keys_b, keys_b, b.generic_keytimes, b.generic_keytimes)[0]))
     state.active[c], state.into[c] = k, t.target
     state.regions[c] = (sa, ea, sb, eb)
     state.length[c] = max(length, MIN_DURATION)

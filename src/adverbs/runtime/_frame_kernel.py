@@ -155,8 +155,11 @@ def _start(c, late, k, verbs, transitions, caches, state, k_):  # pragma: no cov
     source, target = verb[c], t_target[k]
     sa, ea, sb, eb = t_regions[k, 0], t_regions[k, 1], t_regions[k, 2], t_regions[k, 3]
     gc = g[c]
+    whole = False  # B's region played whole, at no more than its own speed (queue._start)
     if gc > sa + k_[_LATE]:  # the region has begun already (a one-shot verb past it, or a loop begun late)
-        if gc < ea:
+        if not verbs[5][source]:
+            sa, ea, whole = gc, max(ea, gc), True
+        elif gc < ea:
             sb += (gc - sa) / (ea - sa) * (eb - sb)
             sa = gc
         else:
@@ -166,6 +169,8 @@ def _start(c, late, k, verbs, transitions, caches, state, k_):  # pragma: no cov
     length_a = _clock_of(ea, source, 0, c, verbs, caches) - _clock_of(sa, source, 0, c, verbs, caches)
     length_b = _clock_of(eb, target, 1, c, verbs, caches) - _clock_of(sb, target, 1, c, verbs, caches)
     duration = 0.5 * (length_a + length_b)
+    if whole:
+        duration = max(duration, 0.5 * (length_b + length_b))
     active[c], into[c] = k, target
     regions[c, 0], regions[c, 1], regions[c, 2], regions[c, 3] = sa, ea, sb, eb
     length[c] = max(duration, k_[_MIN_DURATION])
@@ -424,12 +429,12 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
         if live or cosine:
             for i in range(feet.shape[0]):
                 wts[i] = (1.0 if (held[c, i] and held_before[c, i]) else 0.0) * (1.0 - roll[c, i])
-            lo, hi = 0.0, np.inf  # in a cosine blend the blend of the verbs' own speeds (player._speeds), else any
+            hi = np.inf  # in a cosine blend no faster than the faster verb's own (player._speeds), else any
             if cosine:
-                lo = hi = alpha * math.hypot(d_a[0], d_a[1]) + (1.0 - alpha) * math.hypot(d_b[0], d_b[1])
+                hi = max(math.hypot(d_a[0], d_a[1]), math.hypot(d_b[0], d_b[1]))
             keep_feet_row(
                 parents, feet, wts, rot[c : c + 1], trans[c : c + 1], shown_rot[c : c + 1], shown_trans[c : c + 1], body,
-                above_inv, root[c], fk_now_pos, fk_now_rot, fk_was_pos, fk_was_rot, x0, z0, lo, hi, dt,
+                above_inv, root[c], fk_now_pos, fk_now_rot, fk_was_pos, fk_was_rot, x0, z0, 0.0, hi, dt,
             )  # fmt: skip
     vel_out[c, 0], vel_out[c, 1], vel_out[c, 2] = root_velocity_row(x0, z0, h0, root[c, 0], root[c, 1], root[c, 2], dt)
     for i in range(feet.shape[0]):
