@@ -20,7 +20,8 @@ import numpy as np  # noqa: E402
 
 from adverbs.graph import Cue, load_graph, perform  # noqa: E402
 from adverbs.verb.fit import build_from_spec  # noqa: E402
-from adverbs.feet.planter import effector_joints, plant_feet  # noqa: E402
+from adverbs.feet.offline import plant_feet  # noqa: E402
+from adverbs.feet.planter import effector_joints  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 
