@@ -130,3 +130,36 @@ def test_an_adverb_cue_during_a_gesture_eases_in(bandai):
     # At once (ease=0), as it was: the cue snaps the pose, which this test would see.
     snapped = perform(bandai, bow, seconds=3.5, start="bow", adverbs={"valence": -0.8}, ease=0.0)
     assert _angular_speed(snapped.planted.rotations)[cue - 2 : cue + 30].max() > 1.5 * own
+
+
+def _arms(graph):
+    return [i for i, n in enumerate(graph.skeleton.names) if any(k in n for k in ("Shoulder", "Arm", "Hand"))]
+
+
+def _own(graph, verb, adverbs, seconds):
+    """A verb's own fastest arm joint (rad/s), planted, played alone from its start."""
+    rotations = perform(graph, [], seconds=seconds, start=verb, adverbs=adverbs).planted.rotations
+    return _angular_speed(rotations)[:, _arms(graph)].max()
+
+
+@pytest.mark.parametrize("seed", [4, 9])
+def test_a_gesture_begun_from_a_stand_cut_short_moves_no_faster_than_its_own(bandai, seed):
+    """A gesture asked for while the stand plays starts at its own start and plays no faster than its own clock: it
+    used to start part-way through its raise in a 0.13-0.23 s blend, an arm at 2.2-2.3x the reach's own fastest
+    (here, before: up to 2.0x; now at most 1.21x)."""
+    rng = np.random.default_rng(seed)
+    adverbs = {"valence": float(rng.uniform(-0.5, 0.5))}
+    times = np.cumsum(rng.uniform(2.5, 4.5, 8))
+    cues = [Cue(float(t), str(v)) for t, v in zip(times, ["reach", "bow", "reach", "guide"] * 2)]
+    perf = perform(bandai, cues, seconds=float(times[-1] + 4.0), seed=seed, adverbs=adverbs)
+    speed = _angular_speed(perf.planted.rotations)[:, _arms(bandai)].max(axis=1)
+    own = {v: _own(bandai, v, adverbs, 6.0) for v in ("idle", "reach", "bow", "guide")}
+    entries = _windows(perf, bandai, {("idle", g) for g in ("reach", "bow", "guide")})
+    assert len(entries) >= 4, entries
+    failures = [
+        f"idle→{t} at {a / FPS:.2f} s: an arm at {np.degrees(speed[max(a - 1, 0) : b].max()):.0f} deg/s, its verbs' "
+        f"own {np.degrees(max(own['idle'], own[t])):.0f}"
+        for _, t, a, b in entries
+        if speed[max(a - 1, 0) : b].max() > 1.5 * max(own["idle"], own[t])
+    ]
+    assert not failures, "\n".join(failures)
