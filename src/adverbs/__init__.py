@@ -13,6 +13,7 @@ The package is cut in layers, each a subpackage that imports only from the ones 
 | :mod:`adverbs.feet` | planted feet: the foot planter (state per creature, its compiled loop), offline planting, measures |
 | :mod:`adverbs.graph` | verb graphs: specs, transitions, the planner, creatures stepping through them |
 | :mod:`adverbs.runtime` | the event loop and clocks, the frame as one compiled pass, simulations, timed scripts |
+| :mod:`adverbs.dataset` | motion datasets: clips over adverb spaces and scripts, on Dask, sharded, a Parquet manifest |
 | :mod:`adverbs.apps` | the command line and evaluation |
 
 What most users need is re-exported here, so ``import adverbs`` is enough.
@@ -27,6 +28,8 @@ from .io import format_bvh, parse_bvh, portable, read_bvh, read_glb, read_motion
 from .kinematics import FlatFloor, HeightMapFloor, LegChains, Skeleton, SlopeFloor, forward_kinematics, ik, quat
 from .motion import Clip, DofEncoding, cut_steps, find_contacts
 from .runtime import Creature, Simulation
+from . import dataset  # the subpackage, callable: adverbs.dataset(SPEC, OUT) makes a dataset
+from .dataset import DatasetSpecError, MotionDataset, load_dataset
 from .verb import (
     Adverb,
     Constraint,
@@ -51,6 +54,7 @@ __all__ = [
     "BVHError",
     "Clip",
     "CommandRefused",
+    "DatasetSpecError",
     "Creature",
     "Cue",
     "Constraint",
@@ -59,6 +63,7 @@ __all__ = [
     "FlatFloor",
     "FootPlanter",
     "Graph",
+    "MotionDataset",
     "GraphSpecError",
     "HeightMapFloor",
     "LegChains",
@@ -72,11 +77,13 @@ __all__ = [
     "build_from_spec",
     "build_verb",
     "cut_steps",
+    "dataset",
     "find_contacts",
     "foot_drift",
     "format_bvh",
     "forward_kinematics",
     "ik",
+    "load_dataset",
     "load_graph",
     "load_spec",
     "load_verb",

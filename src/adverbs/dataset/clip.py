@@ -1,0 +1,214 @@
+"""One clip, a pure function of its task and its source (:func:`clip`), and one shard of clips rendered to bytes
+(:func:`render_shard`): what a worker runs. Nothing here reads or writes a file.
+
+A verb's clip is ``adverbs synth`` at the task's point: one cycle (or the duration asked; a cyclic verb longer than a
+cycle goes on through its own loop, :func:`~adverbs.graph.performance.repeat`), feet planted on the task's floor. A
+graph's clip is one creature's performance of the task's script (:func:`~adverbs.graph.performance.perform`), its
+default transitions drawn from the task's seed. The feet are measured on the frames written
+(:func:`~adverbs.feet.measures.measure_feet`).
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+import warnings
+import zipfile
+from dataclasses import dataclass, field
+
+import numpy as np
+from threadpoolctl import threadpool_limits
+
+from ..errors import AdverbsError, AdverbsWarning
+from ..feet.measures import FootMetrics, measure_feet
+from ..feet.offline import plant_feet
+from ..feet.planter import LIFTED
+from ..graph.performance import Cue, perform, repeat
+from ..graph.structure import Graph
+from ..io.bvh import format_bvh
+from ..io.gltf import format_glb
+from ..kinematics.floor import Floor, parse_floor
+from ..motion.clip import Clip
+from ..verb.tables import Verb
+from .plan import ClipTask
+
+_EPOCH = (1980, 1, 1, 0, 0, 0)
+FEET_COLUMNS = (
+    "toe_drift_median_mm", "toe_drift_max_mm", "heel_drift_max_mm", "lowest_mm", "held_height_mm", "slide_max_mm",
+    "aloft_max_mm",
+)  # fmt: skip
+
+
+@dataclass
+class Made:
+    """A clip made: the planted motion, what its feet did (None: nothing is held), what played, warnings."""
+
+    motion: Clip
+    feet: FootMetrics | None
+    played: str
+    warnings: list[str] = field(default_factory=list)
+
+
+def floor_of(text: str) -> Floor | None:
+    """The floor a task names; ``"flat"`` is None: the verb's own floor (a graph's: that of its first verb that holds)."""
+    return None if text == "flat" else parse_floor(text)
+
+
+def clip(source: Verb | Graph, task: ClipTask) -> Made:
+    """The clip ``task`` asks of ``source`` (a verb or a graph): the same motion for the same arguments, on any machine.
+
+    An adverb point the verb refuses (a degenerate cycle), a script the graph cannot play, raise
+    :class:`~adverbs.errors.AdverbsError`; warnings (a point far past the examples, a refused command, a foot out of
+    reach) are returned, not printed."""
+    floor = floor_of(task.floor)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", AdverbsWarning)
+        made = _graph_clip(source, task, floor) if isinstance(source, Graph) else _verb_clip(source, task, floor)
+    made.warnings = [str(w.message) for w in caught if issubclass(w.category, AdverbsWarning)] + made.warnings
+    return made
+
+
+def _verb_clip(verb: Verb, task: ClipTask, floor: Floor | None) -> Made:
+    p = verb.point(dict(task.adverbs))
+    report = None
+    if verb.cyclic and task.duration is not None and task.duration > verb.duration(p) * (1.0 + 1e-9):
+        looped, _ = repeat(verb, p, duration=task.duration, fps=task.fps, floor=floor)  # cycle into cycle (§5)
+        motion, report = looped.planted, looped.report
+    else:
+        motion, k = verb.synthesize(p, duration=task.duration, fps=task.fps)
+        if verb.constraints:
+            motion, report = plant_feet(verb, motion, k, floor, p)
+    feet = measure_feet(verb, motion, report, floor) if report is not None else None
+    return Made(motion, feet, verb.name, list(report.warnings) if report is not None else [])
+
+
+def _graph_clip(graph: Graph, task: ClipTask, floor: Floor | None) -> Made:
+    cues = [Cue(c["at"], c.get("perform"), c.get("adverbs")) for c in json.loads(task.script or "[]")]
+    seconds = task.duration if task.duration is not None else 10.0
+    perf = perform(graph, cues, seconds=seconds, fps=task.fps or 30.0, seed=task.seed, floor=floor, start=task.start, adverbs=dict(task.adverbs))  # fmt: skip
+    played = [graph.verb_names[v] for v in perf.verb]
+    order = [n for i, n in enumerate(played) if i == 0 or played[i - 1] != n]
+    holding = next((v for v in graph.verbs if v.holds), None)
+    feet = measure_feet(holding, perf.planted, perf.report, floor, perf.free) if holding is not None else None
+    notes = [f"command at {t:g} s refused: {why}" for t, why in perf.refused] + list(perf.report.warnings)
+    return Made(perf.planted, feet, " > ".join(order), notes)
+
+
+def feet_figures(feet: FootMetrics | None) -> dict:
+    """The manifest's planted-feet columns (millimetres; NaN where nothing was held), ``unreachable`` effector-frames
+    and ``never_down``: the feet that never came within ``LIFTED`` of their contact height."""
+    nan = math.nan
+    if feet is None:
+        return {**dict.fromkeys(FEET_COLUMNS, nan), "unreachable": 0, "never_down": ""}
+
+    def mm(x: np.ndarray, f) -> float:
+        return float(1000 * f(x)) if len(x) else nan
+
+    return {
+        "toe_drift_median_mm": mm(feet.toe_drift, np.median),
+        "toe_drift_max_mm": mm(feet.toe_drift, np.max),
+        "heel_drift_max_mm": mm(feet.heel_drift, np.max),
+        "lowest_mm": 1000 * feet.lowest,
+        "held_height_mm": 1000 * feet.held_height,
+        "slide_max_mm": mm(feet.slide, np.max),
+        "aloft_max_mm": mm(feet.aloft, np.max),
+        "unreachable": int(feet.unreachable),
+        "never_down": ",".join(n for n, a in zip(feet.feet, feet.aloft) if a > LIFTED),
+    }
+
+
+# ----- a shard --------------------------------------------------------------------------------------
+
+
+def clip_name(clip_id: int) -> str:
+    """A clip's name in files and array keys: ``c00000042``."""
+    return f"c{clip_id:08d}"
+
+
+def shard_folder(shard: int) -> str:
+    return f"shards/{shard:06d}"
+
+
+def npz_bytes(arrays: dict[str, np.ndarray]) -> bytes:
+    """``arrays`` as an ``.npz`` (what :func:`numpy.savez` writes, read back with ``np.load(allow_pickle=False)``), but
+    the same bytes every time: every member dated 1980-01-01 (NumPy's own stamps the time of writing)."""
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", zipfile.ZIP_STORED, allowZip64=True) as z:
+        for key, a in arrays.items():
+            member = io.BytesIO()
+            np.lib.format.write_array(member, np.ascontiguousarray(a), allow_pickle=False)
+            z.writestr(zipfile.ZipInfo(f"{key}.npy", _EPOCH), member.getvalue())
+    return buf.getvalue()
+
+
+@dataclass
+class ShardResult:
+    """A shard rendered: its files (path in the dataset → bytes) and one manifest row per clip, in clip order."""
+
+    shard: int
+    files: dict[str, bytes]
+    rows: list[dict]
+
+
+def render_shard(shard: int, tasks: list[ClipTask], sources: list, formats: tuple[str, ...], portable: bool) -> ShardResult:
+    """Make every clip of a shard and its files; ``sources[i]`` is the loaded verb or graph of ``tasks[*].source == i``
+    (only those the shard uses need be there). A clip that fails is a row with its error, and the rest go on.
+    BLAS runs on one thread, so a clip's numbers are the same in a process of many threads or of one."""
+    folder = shard_folder(shard)
+    files: dict[str, bytes] = {}
+    arrays: dict[str, np.ndarray] = {}
+    rows = []
+    with threadpool_limits(1):
+        for task in tasks:
+            row = _row(task, shard)
+            row["source"] = sources[task.source].name
+            name = clip_name(task.clip)
+            try:
+                made = clip(sources[task.source], task)
+                motion = made.motion
+                if "arrays" in formats:
+                    arrays[f"{name}_rotations"] = motion.rotations.astype(np.float32)
+                    arrays[f"{name}_positions"] = motion.global_positions().astype(np.float32)
+                    row["arrays"] = f"{folder}/arrays.npz"
+                for fmt in ("bvh", "glb"):
+                    if fmt in formats:
+                        path = f"{folder}/{name}.{fmt}"
+                        files[path] = format_bvh(motion, portable=portable).encode() if fmt == "bvh" else format_glb(motion)
+                        row[fmt] = path
+                row.update(frames=motion.num_frames, fps=float(motion.fps), seconds=motion.num_frames / motion.fps, played=made.played)
+                row.update(feet_figures(made.feet))
+                row["warnings"] = "\n".join(made.warnings)
+            except (AdverbsError, ArithmeticError, ValueError) as e:  # this clip, recorded; the others go on
+                row.update(status="failed", error=f"{type(e).__name__}: {e}")
+            rows.append(row)
+    if arrays:
+        files[f"{folder}/arrays.npz"] = npz_bytes(arrays)
+    return ShardResult(shard, files, rows)
+
+
+def _row(task: ClipTask, shard: int) -> dict:
+    """A manifest row before the clip is made: what was asked (see :data:`adverbs.dataset.manifest.SCHEMA`)."""
+    return {
+        "clip": task.clip,
+        "name": clip_name(task.clip),
+        "kind": task.kind,
+        "source": "",
+        "adverbs": list(task.adverbs),
+        "script": task.script,
+        "seed": task.seed,
+        "floor": task.floor,
+        "duration": math.nan if task.duration is None else task.duration,
+        "fps": math.nan,
+        "frames": 0,
+        "seconds": 0.0,
+        "played": "",
+        **feet_figures(None),
+        "shard": shard,
+        "arrays": "",
+        "bvh": "",
+        "glb": "",
+        "status": "ok",
+        "error": "",
+        "warnings": "",
+    }
