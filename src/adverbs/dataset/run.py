@@ -255,7 +255,7 @@ def dataset(
             for i in pending:
                 finish(render_shard(i, shards[i], objects, prepared.spec.formats, prepared.spec.portable))
         elif pending:
-            summary.workers = _distributed(prepared, pending, workers, scheduler, dashboard, finish, summary)
+            summary.workers = _distributed(prepared, pending, workers, scheduler, dashboard, finish, summary, say)
     finally:
         bar.close()
     if all(finished(out, i) for i in range(len(shards))):
@@ -264,18 +264,23 @@ def dataset(
     return summary
 
 
-def _distributed(prepared: Prepared, pending: list[int], workers, scheduler, dashboard, finish, summary: Summary) -> int:
+def _distributed(prepared: Prepared, pending: list[int], workers, scheduler, dashboard, finish, summary: Summary, say=None) -> int:
     """Make the ``pending`` shards on a Dask cluster; returns how many workers it had."""
     from distributed import Client, LocalCluster, as_completed
 
     cluster = None
     if scheduler is None:
         n = workers if workers is not None else (os.cpu_count() or 1)
-        address = None if not dashboard else (":8787" if dashboard is True else str(dashboard))
+        # No dashboard unless asked; the scheduler's bare HTTP endpoint (health, metrics) then takes any free port of
+        # 127.0.0.1 (its default, 8787, is often taken by another cluster's dashboard).
+        address = None if not dashboard else ("127.0.0.1:8787" if dashboard is True else str(dashboard))
+        quiet = {} if dashboard else {"scheduler_kwargs": {"dashboard_address": "127.0.0.1:0"}}
         cluster = LocalCluster(
             n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=address,
-            silence_logs=logging.ERROR,
+            silence_logs=logging.ERROR, **quiet,
         )  # fmt: skip
+        if dashboard and say is not None:
+            say(f"dashboard: {cluster.dashboard_link}")
         client = Client(cluster)
     else:
         client = Client(scheduler)

@@ -17,6 +17,8 @@ import zipfile
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
+from threadpoolctl import threadpool_limits
+
 from ..errors import AdverbsError, AdverbsWarning
 from ..graph.spec import load_graph
 from ..graph.structure import Graph, Transition
@@ -45,22 +47,24 @@ class Source:
         return ".verb" if self.kind == "verb" else ".graph"
 
 
-def _source(kind: str, name: str, data: bytes) -> Source:
-    return Source(kind, name, data, hashlib.sha256(data).hexdigest())
-
-
 def build_sources(spec: DatasetSpec, progress=None) -> list[Source]:
-    """One :class:`Source` per entry of ``spec``, built (or read) once each: two entries naming one file share it.
-    A verb or graph that cannot be built is a :class:`DatasetSpecError` naming the entry's field."""
-    built: dict[tuple[str, Path, str | None], Source] = {}
+    """One :class:`Source` per entry of ``spec``; each file is built (or read) once, however many entries name it. A
+    verb or graph that cannot be built is a :class:`DatasetSpecError` naming the entry's field."""
+    built: dict[tuple[str, Path], Verb | Graph] = {}
     out = []
     for e in spec.entries:
-        key = (e.kind, e.file, e.name)
+        key = (e.kind, e.file)
         if key not in built:
             built[key] = _build(spec.path, e)
             if progress is not None:
                 progress(f"{'read' if e.built else 'built'} {e.kind} {built[key].name!r} from {e.file.name}")
-        out.append(built[key])
+        thing = built[key]
+        if isinstance(thing, Graph) and e.start is not None and e.start not in thing.verb_names:
+            raise DatasetSpecError(spec.path, f"graph {thing.name!r} has no verb {e.start!r}; its verbs are {', '.join(thing.verb_names)}", f"{e.where}.start")  # fmt: skip
+        if e.name is not None:
+            thing = replace(thing, name=e.name)
+        data = graph_bytes(thing) if isinstance(thing, Graph) else verb_bytes(thing)
+        out.append(Source(e.kind, thing.name, data, hashlib.sha256(data).hexdigest()))
     names: dict[str, str] = {}
     for s in out:
         if names.setdefault(s.name, s.digest) != s.digest:
@@ -68,25 +72,19 @@ def build_sources(spec: DatasetSpec, progress=None) -> list[Source]:
     return out
 
 
-def _build(path: Path, e: Entry) -> Source:
+def _build(path: Path, e: Entry) -> Verb | Graph:
+    """The entry's verb or graph, built on one BLAS thread: a build's last bits depend on how many threads OpenBLAS
+    splits its sums over (the bow's verb file differs between one thread and two), and a dataset's bytes must not
+    depend on the cores of the machine that reads its spec."""
     key = "graph" if e.kind == "graph" else "verb" if e.built else "spec"
     try:
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(), threadpool_limits(1):
             warnings.simplefilter("ignore", AdverbsWarning)
             if e.kind == "graph":
-                graph = load_graph(e.file)
-                if e.start is not None and e.start not in graph.verb_names:
-                    raise DatasetSpecError(path, f"graph {graph.name!r} has no verb {e.start!r}; its verbs are {', '.join(graph.verb_names)}", f"{e.where}.start")  # fmt: skip
-                name = e.name or graph.name
-                return _source("graph", name, graph_bytes(replace(graph, name=name)))
-            verb = load_verb(e.file) if e.built else build_from_spec(e.file)
-    except DatasetSpecError:
-        raise
+                return load_graph(e.file)
+            return load_verb(e.file) if e.built else build_from_spec(e.file)
     except AdverbsError as err:
         raise DatasetSpecError(path, str(err), f"{e.where}.{key}") from None
-    if e.name is not None:
-        verb = replace(verb, name=e.name)
-    return _source("verb", verb.name, verb_bytes(verb))
 
 
 # ----- graphs as data ------------------------------------------------------------------------------
