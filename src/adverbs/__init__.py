@@ -28,8 +28,6 @@ from .io import format_bvh, parse_bvh, portable, read_bvh, read_glb, read_motion
 from .kinematics import FlatFloor, HeightMapFloor, LegChains, Skeleton, SlopeFloor, forward_kinematics, ik, quat
 from .motion import Clip, DofEncoding, cut_steps, find_contacts
 from .runtime import Creature, Simulation
-from . import dataset  # the subpackage, callable: adverbs.dataset(SPEC, OUT) makes a dataset
-from .dataset import DatasetSpecError, MotionDataset, load_dataset
 from .verb import (
     Adverb,
     Constraint,
@@ -105,3 +103,15 @@ __all__ = [
     "write_motion",
 ]
 __version__ = "0.1.0"
+_DATASET = ("dataset", "load_dataset", "MotionDataset", "DatasetSpecError")
+
+
+def __getattr__(name: str):
+    """The dataset layer, imported when first asked for (it brings pyarrow and scipy.stats, which nothing else needs):
+    ``adverbs.dataset`` is its subpackage, callable (``adverbs.dataset(SPEC, OUT)`` makes a dataset)."""
+    if name in _DATASET:
+        import importlib
+
+        package = importlib.import_module(".dataset", __name__)
+        return package if name == "dataset" else getattr(package, name)
+    raise AttributeError(f"module 'adverbs' has no attribute {name!r}")

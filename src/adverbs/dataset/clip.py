@@ -2,7 +2,8 @@
 (:func:`render_shard`): what a worker runs. Nothing here reads or writes a file.
 
 A verb's clip is ``adverbs synth`` at the task's point: one cycle (or the duration asked; a cyclic verb longer than a
-cycle goes on through its own loop, :func:`~adverbs.graph.performance.repeat`), feet planted on the task's floor. A
+cycle goes on through its own loop, :func:`~adverbs.graph.performance.repeat`, or with ``loop = "kernel"`` by
+:meth:`Verb.synthesize`'s faded seams), feet planted on the task's floor. A
 graph's clip is one creature's performance of the task's script (:func:`~adverbs.graph.performance.perform`), its
 default transitions drawn from the task's seed. The feet are measured on the frames written
 (:func:`~adverbs.feet.measures.measure_feet`).
@@ -72,7 +73,8 @@ def clip(source: Verb | Graph, task: ClipTask) -> Made:
 def _verb_clip(verb: Verb, task: ClipTask, floor: Floor | None) -> Made:
     p = verb.point(dict(task.adverbs))
     report = None
-    if verb.cyclic and task.duration is not None and task.duration > verb.duration(p) * (1.0 + 1e-9):
+    longer = task.duration is not None and task.duration > verb.duration(p) * (1.0 + 1e-9)
+    if verb.cyclic and longer and task.loop == "graph":
         looped, _ = repeat(verb, p, duration=task.duration, fps=task.fps, floor=floor)  # cycle into cycle (§5)
         motion, report = looped.planted, looped.report
     else:

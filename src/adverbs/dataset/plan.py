@@ -16,7 +16,6 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import qmc
 
 from ..graph.structure import Graph
 from ..limits import check_frames
@@ -33,7 +32,7 @@ class ClipTask:
     ``clip``: its id (0, 1, … in the spec's order); ``source``: index of its verb or graph; ``adverbs``: (name, value)
     pairs, the verb's point or where the graph performance starts; ``seed``: the clip's own (a graph's default
     transitions are drawn from it); ``duration`` in seconds (None: one cycle of the verb); ``fps`` (None: the verb's);
-    ``floor`` ("flat", "flat:LEVEL", "slope:DEG"); ``script``: a graph's cues as JSON text; ``start``: its first verb.
+    ``floor`` ("flat", "flat:LEVEL", "slope:DEG"); ``script``: a graph's cues as JSON text; ``start``: its first verb; ``loop``: how a verb's cycles go on (see the spec).
     """
 
     clip: int
@@ -46,6 +45,7 @@ class ClipTask:
     floor: str
     script: str = ""
     start: str | None = None
+    loop: str = "graph"
 
 
 def clip_seed(seed: int, clip: int) -> np.random.SeedSequence:
@@ -60,6 +60,8 @@ def _unit_samples(sampler: str, n: int, dims: int, ss: np.random.SeedSequence) -
         return np.zeros((n, 0))
     if sampler == "uniform":
         return rng.random((n, dims))
+    from scipy.stats import qmc  # here: scipy.stats takes a second to import, and only these samplers need it
+
     engine = qmc.Sobol if sampler == "sobol" else qmc.LatinHypercube
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)  # Sobol's balance note when n is not a power of two
@@ -142,5 +144,5 @@ def plan(spec: DatasetSpec, sources: list) -> list[ClipTask]:
             floor = spec.floors[int(rng.integers(len(spec.floors)))] if len(spec.floors) > 1 else spec.floors[0]
             script = _script(rng, source, entry, duration, lo, hi) if entry.kind == "graph" else ""
             adverbs = tuple(zip(names, (float(x) for x in p)))
-            tasks.append(ClipTask(clip, index, entry.kind, adverbs, seed, duration, fps, floor, script, entry.start))
+            tasks.append(ClipTask(clip, index, entry.kind, adverbs, seed, duration, fps, floor, script, entry.start, entry.loop))
     return tasks
