@@ -598,7 +598,11 @@ def _dataset(args: argparse.Namespace) -> None:
         print(f"{ok} of {prepared.spec.shard_size}, from {len(prepared.sources)} sources; formats {', '.join(prepared.spec.formats)}")
         return
     print(f"reading {args.spec}", file=sys.stderr)
-    summary = dataset(args.spec, args.out, workers=args.workers, scheduler=args.scheduler, dashboard=args.dashboard, progress=True)
+    try:
+        summary = dataset(args.spec, args.out, workers=args.workers, scheduler=args.scheduler, dashboard=args.dashboard, progress=True)
+    except KeyboardInterrupt:
+        print(f"adverbs: the finished shards are kept in {args.out}; the same command makes the rest", file=sys.stderr)
+        raise
     print(summary.line())
     for shard, why in summary.shard_errors:
         print(f"adverbs: shard {shard} failed: {why}", file=sys.stderr)

@@ -73,6 +73,8 @@ class Summary:
         done = f"{self.made + self.failed:,} clips made ({self.failed:,} failed) in {self.seconds:.1f} s on {where}"
         if self.made + self.failed:
             done += f" ({self.clips_per_second:.1f} clips/s)"
+        elif not self.shard_errors:
+            done = "nothing left to make"
         skipped = f"; {self.skipped} of {self.shards} shards done before, skipped" if self.skipped else ""
         bad = f"; {len(self.shard_errors)} shards failed (run again to retry them)" if self.shard_errors else ""
         return f"{self.out}: {self.clips:,} clips in {self.shards} shards; {done}{skipped}{bad}"
@@ -237,7 +239,8 @@ def dataset(
     shards = prepared.shards
     pending = [i for i in range(len(shards)) if not finished(out, i)]
     summary = Summary(out, len(prepared.tasks), len(shards), skipped=len(shards) - len(pending))
-    bar = _Progress(progress, len(prepared.tasks), sum(len(shards[i]) for i in range(len(shards)) if i not in set(pending)))
+    waiting = set(pending)
+    bar = _Progress(progress, len(prepared.tasks), sum(len(shards[i]) for i in range(len(shards)) if i not in waiting))
     done = [len(shards) - len(pending)]
 
     def finish(result: ShardResult) -> None:
