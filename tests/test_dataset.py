@@ -267,3 +267,25 @@ def test_a_clip_is_a_pure_function_of_its_task():
     task = ClipTask(1, 0, "graph", (("walk_speed", 1.3),), 9, 3.0, 30.0, "flat", script)
     here, there = clip(graph, task), clip(graph_from_bytes(graph_bytes(graph)), task)
     assert np.array_equal(here.motion.rotations, there.motion.rotations) and here.played == there.played == "walk > run"
+
+
+def test_clips_stepped_together_are_each_the_clip_made_alone():
+    """A shard's looped verb clips go through the verb's graph together (more than one batch of them here), their
+    feet planted one by one: each the same bits as the clip made alone, on its own floor."""
+    from adverbs.dataset import ClipTask, clip
+    from adverbs.dataset.clip import MAX_BATCH, clips
+
+    walk = adverbs.build_from_spec(ROOT / "specs/cmu_walk.toml")
+    rng = np.random.default_rng(4)
+    lo, hi = walk.points.min(axis=0), walk.points.max(axis=0)
+    tasks = [
+        ClipTask(i, 0, "verb", tuple(zip(walk.adverb_names, map(float, lo + rng.random(2) * (hi - lo)))), i,
+                 float(rng.uniform(1.2, 2.5)), None, ("flat", "slope:4", "flat:0.1")[i % 3])
+        for i in range(MAX_BATCH + 7)
+    ]  # fmt: skip
+    together = clips(walk, tasks)
+    for task, made in zip(tasks, together):
+        alone = clip(walk, task)
+        assert np.array_equal(made.motion.rotations, alone.motion.rotations), task
+        assert np.array_equal(made.motion.translations, alone.motion.translations), task
+        assert np.array_equal(made.feet.toe_drift, alone.feet.toe_drift) and made.warnings == alone.warnings

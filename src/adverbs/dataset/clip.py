@@ -16,21 +16,26 @@ import json
 import math
 import warnings
 import zipfile
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 from threadpoolctl import threadpool_limits
 
 from ..errors import AdverbsError, AdverbsWarning
 from ..feet.measures import FootMetrics, measure_feet
-from ..feet.offline import plant_feet
+from ..feet.offline import plant_feet, report_of_modes
 from ..feet.planter import LIFTED
 from ..graph.performance import Cue, perform, repeat
+from ..graph.planted import plant, planter
+from ..graph.player import Frame, first_frame, step
+from ..graph.state import new_state
 from ..graph.structure import Graph
 from ..io.bvh import format_bvh
 from ..io.gltf import format_glb
 from ..kinematics.floor import Floor, parse_floor
 from ..motion.clip import Clip
+from ..verb.sampling import GROUPED
+from ..verb.synthesis import plan
 from ..verb.tables import Verb
 from .plan import ClipTask
 
@@ -83,6 +88,88 @@ def _verb_clip(verb: Verb, task: ClipTask, floor: Floor | None) -> Made:
             motion, report = plant_feet(verb, motion, k, floor, p)
     feet = measure_feet(verb, motion, report, floor) if report is not None else None
     return Made(motion, feet, verb.name, list(report.warnings) if report is not None else [])
+
+
+# Creatures stepped together: fewer than the sampling kernel's GROUPED, from which on it samples by matrix products
+# (BLAS), whose last bits differ from its one-by-one loop's: under it a creature samples the same bits in any crowd.
+MAX_BATCH = GROUPED - 1
+
+
+def clips(source: Verb | Graph, tasks: list[ClipTask]) -> list[Made | AdverbsError]:
+    """:func:`clip` of each task (or the error it raised), the same motions, made faster: a verb's clips that go on
+    past one cycle through its loop (the default ``loop = "graph"``) are stepped together, one creature each, through
+    the verb's graph (:func:`~adverbs.graph.player.step` over every creature at once, its per-frame Python paid once);
+    their feet are planted one creature at a time, as :func:`clip` plants them, because the compiled planter's vector
+    loop gives a creature other last bits in a crowd than alone (1e-15: a clip would depend on its neighbours), and
+    at most :data:`MAX_BATCH` at once.
+    ``tests/test_dataset.py`` holds every clip so made equal, bit for bit, to :func:`clip` alone."""
+    out: list[Made | AdverbsError | None] = [None] * len(tasks)
+    loops: dict[float, list[tuple[int, np.ndarray, int, list[str]]]] = {}
+    for i, task in enumerate(tasks):
+        if isinstance(source, Verb) and source.cyclic and task.loop == "graph" and task.duration is not None:
+            try:
+                with warnings.catch_warnings(record=True) as caught:
+                    warnings.simplefilter("always", AdverbsWarning)
+                    p = source.point(dict(task.adverbs))
+                    if task.duration > source.duration(p) * (1.0 + 1e-9):
+                        _, _, times, fps = plan(source, p, task.duration, None, task.fps)  # refused as repeat refuses
+                        notes = [str(w.message) for w in caught if issubclass(w.category, AdverbsWarning)]
+                        loops.setdefault(fps, []).append((i, p, len(times), notes))
+                        continue
+            except (AdverbsError, ArithmeticError, ValueError) as e:
+                out[i] = e
+                continue
+        try:
+            out[i] = clip(source, tasks[i])
+        except (AdverbsError, ArithmeticError, ValueError) as e:
+            out[i] = e
+    for fps, items in loops.items():
+        for start in range(0, len(items), MAX_BATCH):
+            batch = items[start : start + MAX_BATCH]
+            made = _looped(source, fps, [p for _, p, _, _ in batch], [n for _, _, n, _ in batch], [floor_of(tasks[i].floor) for i, *_ in batch])  # fmt: skip
+            for (i, _, _, notes), (motion, report) in zip(batch, made):
+                feet = measure_feet(source, motion, report, floor_of(tasks[i].floor)) if report is not None else None
+                out[i] = Made(motion, feet, source.name, notes + (list(report.warnings) if report is not None else []))
+    return out
+
+
+def _looped(verb: Verb, fps: float, points: list[np.ndarray], frames: list[int], floors: list) -> list[tuple[Clip, object]]:
+    """:func:`~adverbs.graph.performance.repeat` of each point for its number of frames (at ``fps``, from time 0), all
+    stepped together; each creature's feet planted by its own planter on its own floor. The planted clips and
+    their planting reports (None when the verb holds no foot)."""
+    graph = Graph.of_verb(verb)
+    c, last = len(points), max(frames)
+    state = new_state(graph, c, 0, None, np.array(points), np.zeros((c, 3)))
+    state.rngs = [np.random.default_rng(np.random.SeedSequence(0).spawn(1)[0]) for _ in range(c)]  # each as alone
+    holds = any(v.holds for v in graph.verbs)
+    feet = [planter(graph, 1, f) for f in floors] if holds else []
+    j, dt = graph.skeleton.num_joints, 1.0 / fps
+    rot = [np.empty((n, j, 4)) for n in frames]
+    trans = [np.empty((n, j, 3)) for n in frames]
+    legs = len(feet[0].planter.tips) if holds else 0
+    modes = [np.zeros((n, legs), dtype=np.int64) for n in frames]
+    turns, drops = [np.zeros((n, legs)) for n in frames], [np.zeros(n) for n in frames]
+    unreachable, miss = [0] * c, [0.0] * c
+    for f in range(last):
+        frame = first_frame(state) if f == 0 else step(state, dt)
+        for k in range(c):
+            if f >= frames[k]:
+                continue
+            if not holds:
+                rot[k][f], trans[k][f] = frame.rotations[k], frame.translations[k]
+                continue
+            one = Frame(*(getattr(frame, x.name)[k : k + 1].copy() for x in fields(Frame)))
+            r, t, result = plant(feet[k], one, dt, state.alone[k : k + 1])
+            rot[k][f], trans[k][f] = r[0], t[0]
+            modes[k][f], turns[k][f], drops[k][f] = feet[k].planter.mode[0], feet[k].planter.turn[0], result.root_drop[0]
+            unreachable[k] += int(np.count_nonzero(result.unreachable))
+            if result.unreachable.any():
+                miss[k] = max(miss[k], float(result.residual[result.unreachable].max()))
+    return [
+        (Clip(graph.skeleton, rot[k], trans[k], fps, name=graph.name),
+         report_of_modes(modes[k], turns[k], drops[k], unreachable[k], miss[k]) if holds else None)
+        for k in range(c)
+    ]  # fmt: skip
 
 
 def _graph_clip(graph: Graph, task: ClipTask, floor: Floor | None) -> Made:
@@ -162,12 +249,18 @@ def render_shard(shard: int, tasks: list[ClipTask], sources: list, formats: tupl
     arrays: dict[str, np.ndarray] = {}
     rows = []
     with threadpool_limits(1):
+        made_by_source = {}
+        for s in sorted({t.source for t in tasks}):
+            mine = [t for t in tasks if t.source == s]
+            made_by_source.update(zip((t.clip for t in mine), clips(sources[s], mine)))
         for task in tasks:
             row = _row(task, shard)
             row["source"] = sources[task.source].name
             name = clip_name(task.clip)
             try:
-                made = clip(sources[task.source], task)
+                made = made_by_source[task.clip]
+                if isinstance(made, Exception):
+                    raise made
                 motion = made.motion
                 if "arrays" in formats:
                     arrays[f"{name}_rotations"] = motion.rotations.astype(np.float32)
