@@ -289,3 +289,28 @@ def test_clips_stepped_together_are_each_the_clip_made_alone():
         assert np.array_equal(made.motion.rotations, alone.motion.rotations), task
         assert np.array_equal(made.motion.translations, alone.motion.translations), task
         assert np.array_equal(made.feet.toe_drift, alone.feet.toe_drift) and made.warnings == alone.warnings
+
+
+def test_performances_stepped_together_are_each_the_performance_alone():
+    """Graph performances under their scripts go through the graph together: each is the clip made alone (its
+    default transitions drawn from its own seed), refused commands and refused starts included."""
+    from adverbs.dataset import ClipTask, clip
+    from adverbs.dataset.clip import clips
+
+    graph = adverbs.load_graph(ROOT / "graphs/cmu.toml")
+    rng = np.random.default_rng(8)
+    tasks = []
+    for i in range(12):
+        cues = [{"at": float(t), "perform": ("walk", "run", "swim")[int(rng.integers(3))], "adverbs": {"turn": float(rng.uniform(-40, 40))}} for t in np.cumsum(rng.uniform(0.5, 1.5, 3))]  # fmt: skip
+        start = ("walk", "run", None, "fly")[i % 4]
+        tasks.append(ClipTask(i, 0, "graph", (("walk_speed", float(rng.uniform(1.0, 1.6))),), int(rng.integers(1 << 30)), float(rng.uniform(4.6, 5.0)), 30.0, ("flat", "slope:4")[i % 2], json.dumps(cues), start))  # fmt: skip
+    for task, made in zip(tasks, clips(graph, tasks)):
+        try:
+            alone = clip(graph, task)
+        except adverbs.AdverbsError as e:
+            assert isinstance(made, adverbs.AdverbsError) and str(made) == str(e) and task.start == "fly"
+            continue
+        assert np.array_equal(made.motion.rotations, alone.motion.rotations), task
+        assert np.array_equal(made.motion.translations, alone.motion.translations), task
+        assert made.played == alone.played and made.warnings == alone.warnings
+        assert any("swim" in w for w in made.warnings) == ("swim" in task.script)

@@ -25,17 +25,19 @@ from ..errors import AdverbsError, AdverbsWarning
 from ..feet.measures import FootMetrics, measure_feet
 from ..feet.offline import plant_feet, report_of_modes
 from ..feet.planter import LIFTED
-from ..graph.performance import Cue, perform, repeat
+from ..graph.performance import MAX_SECONDS, Cue, perform, repeat
 from ..graph.planted import plant, planter
 from ..graph.player import Frame, first_frame, step
+from ..graph.queue import command
 from ..graph.state import new_state
-from ..graph.structure import Graph
+from ..graph.structure import CommandRefused, Graph
+from ..limits import check_frames
 from ..io.bvh import format_bvh
 from ..io.gltf import format_glb
 from ..kinematics.floor import Floor, parse_floor
 from ..motion.clip import Clip
 from ..verb.sampling import GROUPED
-from ..verb.synthesis import plan
+from ..verb.synthesis import MAX_FPS, plan
 from ..verb.tables import Verb
 from .plan import ClipTask
 
@@ -95,66 +97,144 @@ def _verb_clip(verb: Verb, task: ClipTask, floor: Floor | None) -> Made:
 MAX_BATCH = GROUPED - 1
 
 
+def _graph_clip(graph: Graph, task: ClipTask, floor: Floor | None) -> Made:
+    perf = perform(graph, _cues(task), seconds=_seconds(task), fps=task.fps or 30.0, seed=task.seed, floor=floor, start=task.start, adverbs=dict(task.adverbs))  # fmt: skip
+    return _performance_made(graph, perf.planted, perf.free, perf.report, perf.verb, perf.refused, floor)
+
+
+def _cues(task: ClipTask) -> list[Cue]:
+    return [Cue(c["at"], c.get("perform"), c.get("adverbs")) for c in json.loads(task.script or "[]")]
+
+
+def _seconds(task: ClipTask) -> float:
+    return task.duration if task.duration is not None else 10.0
+
+
+def _performance_made(graph: Graph, planted: Clip, free: Clip, report, verbs: np.ndarray, refused: list, floor) -> Made:
+    """A graph performance as a clip made: the verbs played in order, its feet measured, refused commands noted."""
+    played = [graph.verb_names[v] for v in verbs]
+    order = [n for i, n in enumerate(played) if i == 0 or played[i - 1] != n]
+    holding = next((v for v in graph.verbs if v.holds), None)
+    feet = measure_feet(holding, planted, report, floor, free) if holding is not None else None
+    notes = [f"command at {t:g} s refused: {why}" for t, why in refused] + list(report.warnings)
+    return Made(planted, feet, " > ".join(order), notes)
+
+
 def clips(source: Verb | Graph, tasks: list[ClipTask]) -> list[Made | AdverbsError]:
-    """:func:`clip` of each task (or the error it raised), the same motions, made faster: a verb's clips that go on
-    past one cycle through its loop (the default ``loop = "graph"``) are stepped together, one creature each, through
-    the verb's graph (:func:`~adverbs.graph.player.step` over every creature at once, its per-frame Python paid once);
-    their feet are planted one creature at a time, as :func:`clip` plants them, because the compiled planter's vector
-    loop gives a creature other last bits in a crowd than alone (1e-15: a clip would depend on its neighbours), and
-    at most :data:`MAX_BATCH` at once.
-    ``tests/test_dataset.py`` holds every clip so made equal, bit for bit, to :func:`clip` alone."""
+    """:func:`clip` of each task (or the error it raised), the same motions, made faster: a graph's performances, and a
+    verb's clips that go on past one cycle through its loop (the default ``loop = "graph"``), are stepped together,
+    one creature each, through the graph (:func:`~adverbs.graph.player.step` over every creature at once, its
+    per-frame Python paid once), at most :data:`MAX_BATCH` at once; their feet are planted one creature at a time,
+    as :func:`clip` plants them, because the compiled planter's vector loop gives a creature other last bits in a
+    crowd than alone (1e-15: a clip would depend on its neighbours). ``tests/test_dataset.py`` holds every clip so
+    made equal, bit for bit, to :func:`clip` alone."""
     out: list[Made | AdverbsError | None] = [None] * len(tasks)
-    loops: dict[float, list[tuple[int, np.ndarray, int, list[str]]]] = {}
+    together: dict[float, list[tuple[int, _Creature]]] = {}
     for i, task in enumerate(tasks):
-        if isinstance(source, Verb) and source.cyclic and task.loop == "graph" and task.duration is not None:
-            try:
-                with warnings.catch_warnings(record=True) as caught:
-                    warnings.simplefilter("always", AdverbsWarning)
-                    p = source.point(dict(task.adverbs))
-                    if task.duration > source.duration(p) * (1.0 + 1e-9):
-                        _, _, times, fps = plan(source, p, task.duration, None, task.fps)  # refused as repeat refuses
-                        notes = [str(w.message) for w in caught if issubclass(w.category, AdverbsWarning)]
-                        loops.setdefault(fps, []).append((i, p, len(times), notes))
-                        continue
-            except (AdverbsError, ArithmeticError, ValueError) as e:
-                out[i] = e
-                continue
         try:
-            out[i] = clip(source, tasks[i])
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always", AdverbsWarning)
+                one = _creature(source, task)
+            if one is not None:
+                one.notes = [str(w.message) for w in caught if issubclass(w.category, AdverbsWarning)]
+                together.setdefault(one.fps, []).append((i, one))
+                continue
+            out[i] = clip(source, task)
         except (AdverbsError, ArithmeticError, ValueError) as e:
             out[i] = e
-    for fps, items in loops.items():
+    graph = Graph.of_verb(source) if isinstance(source, Verb) else source
+    for fps, items in together.items():
         for start in range(0, len(items), MAX_BATCH):
             batch = items[start : start + MAX_BATCH]
-            made = _looped(source, fps, [p for _, p, _, _ in batch], [n for _, _, n, _ in batch], [floor_of(tasks[i].floor) for i, *_ in batch])  # fmt: skip
-            for (i, _, _, notes), (motion, report) in zip(batch, made):
-                feet = measure_feet(source, motion, report, floor_of(tasks[i].floor)) if report is not None else None
-                out[i] = Made(motion, feet, source.name, notes + (list(report.warnings) if report is not None else []))
+            for (i, one), (planted, free, report, verbs, refused) in zip(batch, _together(graph, fps, [x for _, x in batch])):
+                floor = one.floor
+                if isinstance(source, Graph):
+                    out[i] = _performance_made(graph, planted, free, report, verbs, refused, floor)
+                    out[i].warnings = one.notes + out[i].warnings
+                else:
+                    feet = measure_feet(source, planted, report, floor) if report is not None else None
+                    out[i] = Made(planted, feet, source.name, one.notes + (list(report.warnings) if report is not None else []))
     return out
 
 
-def _looped(verb: Verb, fps: float, points: list[np.ndarray], frames: list[int], floors: list) -> list[tuple[Clip, object]]:
-    """:func:`~adverbs.graph.performance.repeat` of each point for its number of frames (at ``fps``, from time 0), all
-    stepped together; each creature's feet planted by its own planter on its own floor. The planted clips and
-    their planting reports (None when the verb holds no foot)."""
-    graph = Graph.of_verb(verb)
-    c, last = len(points), max(frames)
-    state = new_state(graph, c, 0, None, np.array(points), np.zeros((c, 3)))
-    state.rngs = [np.random.default_rng(np.random.SeedSequence(0).spawn(1)[0]) for _ in range(c)]  # each as alone
+@dataclass
+class _Creature:
+    """One clip as a creature of :func:`_together`: where it starts, for how many frames, on what floor, its cues."""
+
+    point: np.ndarray
+    frames: int
+    fps: float
+    floor: Floor | None
+    seed: int = 0
+    start: str | None = None
+    cues: list[Cue] = field(default_factory=list)
+    from_start: bool = False
+    notes: list[str] = field(default_factory=list)
+
+
+def _creature(source: Verb | Graph, task: ClipTask) -> _Creature | None:
+    """The task as a creature to step with others, checked as :func:`clip` checks it (the same refusals), or None if
+    it is not made that way (a verb's single cycle or faded seams)."""
+    floor = floor_of(task.floor)
+    if isinstance(source, Graph):
+        fps, seconds = task.fps or 30.0, _seconds(task)
+        if not (np.isfinite(seconds) and 0 < seconds <= MAX_SECONDS and 1 <= fps <= MAX_FPS):
+            return None  # perform refuses it, with its message
+        point = source.check_point(source.point(dict(task.adverbs)))
+        if task.start is not None:
+            source.verb_index(task.start)
+        frames = int(round(seconds * fps))
+        check_frames(frames, source.skeleton.num_joints, f"{seconds:g} s at {fps:g} fps")
+        return _Creature(point, frames, fps, floor, task.seed, task.start, sorted(_cues(task), key=lambda c: c.time))
+    if not (source.cyclic and task.loop == "graph" and task.duration is not None):
+        return None
+    p = source.point(dict(task.adverbs))
+    if not task.duration > source.duration(p) * (1.0 + 1e-9):
+        return None
+    _, _, times, fps = plan(source, p, task.duration, None, task.fps)  # refused and warned as repeat() would
+    return _Creature(p, len(times) - 1, fps, floor, from_start=True)  # and the frame at time 0
+
+
+def _together(graph: Graph, fps: float, creatures: list[_Creature]) -> list[tuple]:
+    """:func:`~adverbs.graph.performance.perform` of each creature (its start, cues, seed and floor), all stepped
+    together: per creature the planted and free clips, the planting report, the verb playing at every frame and the
+    commands refused. A verb's loop is the performance of its one-verb graph from time 0 (``from_start``), as
+    :func:`~adverbs.graph.performance.repeat` plays it."""
+    c = len(creatures)
+    frames = [x.frames + int(x.from_start) for x in creatures]
+    state = new_state(
+        graph, c, 0, [x.start for x in creatures], np.array([x.point for x in creatures]), np.zeros((c, 3)),
+        seeds=[x.seed for x in creatures],
+    )  # fmt: skip
     holds = any(v.holds for v in graph.verbs)
-    feet = [planter(graph, 1, f) for f in floors] if holds else []
-    j, dt = graph.skeleton.num_joints, 1.0 / fps
-    rot = [np.empty((n, j, 4)) for n in frames]
-    trans = [np.empty((n, j, 3)) for n in frames]
+    feet = [planter(graph, 1, x.floor) for x in creatures] if holds else []
+    j, dt, from_start = graph.skeleton.num_joints, 1.0 / fps, creatures[0].from_start
+    rot, trans = [np.empty((n, j, 4)) for n in frames], [np.empty((n, j, 3)) for n in frames]
+    free_rot, free_trans = [np.empty((n, j, 4)) for n in frames], [np.empty((n, j, 3)) for n in frames]
     legs = len(feet[0].planter.tips) if holds else 0
     modes = [np.zeros((n, legs), dtype=np.int64) for n in frames]
     turns, drops = [np.zeros((n, legs)) for n in frames], [np.zeros(n) for n in frames]
-    unreachable, miss = [0] * c, [0.0] * c
-    for f in range(last):
-        frame = first_frame(state) if f == 0 else step(state, dt)
+    verbs = [np.empty(n, dtype=np.int64) for n in frames]
+    unreachable, miss, refused, next_cue = [0] * c, [0.0] * c, [[] for _ in range(c)], [0] * c
+    for f in range(max(frames)):
+        now = (f - int(from_start)) * dt
+        for k, x in enumerate(creatures):  # the cues due, as perform() takes them
+            while f < frames[k] and next_cue[k] < len(x.cues) and x.cues[next_cue[k]].time <= now + 1e-9:
+                cue = x.cues[next_cue[k]]
+                next_cue[k] += 1
+                try:
+                    if cue.adverbs:
+                        p = graph.point({**dict(zip(graph.adverb_names, state.points[k])), **cue.adverbs})
+                        state.points[k] = graph.check_point(p)
+                    if cue.verb is not None:
+                        command(state, k, cue.verb)
+                except (CommandRefused, AdverbsError) as e:
+                    refused[k].append((cue.time, str(e)))
+        frame = first_frame(state) if from_start and f == 0 else step(state, dt)
         for k in range(c):
             if f >= frames[k]:
                 continue
+            free_rot[k][f], free_trans[k][f], verbs[k][f] = frame.rotations[k], frame.translations[k], state.verb[k]
             if not holds:
                 rot[k][f], trans[k][f] = frame.rotations[k], frame.translations[k]
                 continue
@@ -167,21 +247,11 @@ def _looped(verb: Verb, fps: float, points: list[np.ndarray], frames: list[int],
                 miss[k] = max(miss[k], float(result.residual[result.unreachable].max()))
     return [
         (Clip(graph.skeleton, rot[k], trans[k], fps, name=graph.name),
-         report_of_modes(modes[k], turns[k], drops[k], unreachable[k], miss[k]) if holds else None)
+         Clip(graph.skeleton, free_rot[k], free_trans[k], fps, name=graph.name),
+         report_of_modes(modes[k], turns[k], drops[k], unreachable[k], miss[k]),
+         verbs[k], refused[k])
         for k in range(c)
     ]  # fmt: skip
-
-
-def _graph_clip(graph: Graph, task: ClipTask, floor: Floor | None) -> Made:
-    cues = [Cue(c["at"], c.get("perform"), c.get("adverbs")) for c in json.loads(task.script or "[]")]
-    seconds = task.duration if task.duration is not None else 10.0
-    perf = perform(graph, cues, seconds=seconds, fps=task.fps or 30.0, seed=task.seed, floor=floor, start=task.start, adverbs=dict(task.adverbs))  # fmt: skip
-    played = [graph.verb_names[v] for v in perf.verb]
-    order = [n for i, n in enumerate(played) if i == 0 or played[i - 1] != n]
-    holding = next((v for v in graph.verbs if v.holds), None)
-    feet = measure_feet(holding, perf.planted, perf.report, floor, perf.free) if holding is not None else None
-    notes = [f"command at {t:g} s refused: {why}" for t, why in perf.refused] + list(perf.report.warnings)
-    return Made(perf.planted, feet, " > ".join(order), notes)
 
 
 def feet_figures(feet: FootMetrics | None) -> dict:

@@ -18,7 +18,7 @@ sampler = "sobol"                # "grid", "uniform", "sobol", "lhs" (Latin hype
 margin = 0.1                     # the examples' range widened by this much of it on each side
 duration = [2.0, 4.0]            # seconds, or [shortest, longest] drawn per clip (default: one cycle)
 loop = "graph"                   # past one cycle: each into the next by the verb's own loop, as adverbs synth does
-                                 # (default), or "kernel": Verb.synthesize's faded seams, about 5 times faster
+                                 # (default), or "kernel": Verb.synthesize's faded seams (a little faster)
 # grid = 5                       # sampler = "grid": values per adverb (clips = grid ** adverbs)
 # points = [{ speed = 1.2, turn = 0 }]   # sampler = "points": these adverb points (clips: repeats of them)
 
