@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import os
 import subprocess
 import sys
 import tempfile
@@ -74,6 +75,7 @@ def main() -> None:
     parser.add_argument("--clips", type=int, default=200, help="clips per verb and graph (default 200: 1,200 in all)")
     args = parser.parse_args()
     rows, digests = [], set()
+    print(f"load average before: {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores (anything else running skews the table)")
     with tempfile.TemporaryDirectory() as folder:
         spec = Path(folder) / "bench.toml"
         spec.write_text(spec_text(args.clips))

@@ -146,7 +146,14 @@ def clips(source: Verb | Graph, tasks: list[ClipTask]) -> list[Made | AdverbsErr
     for fps, items in together.items():
         for start in range(0, len(items), MAX_BATCH):
             batch = items[start : start + MAX_BATCH]
-            for (i, one), (planted, free, report, verbs, refused) in zip(batch, _together(graph, fps, [x for _, x in batch])):
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always", AdverbsWarning)
+                made = _together(graph, fps, [x for _, x in batch])
+            if any(issubclass(w.category, AdverbsWarning) for w in caught):  # whose? made again one by one, to say
+                for i, _ in batch:
+                    out[i] = _alone(source, tasks[i])
+                continue
+            for (i, one), (planted, free, report, verbs, refused) in zip(batch, made):
                 floor = one.floor
                 if isinstance(source, Graph):
                     out[i] = _performance_made(graph, planted, free, report, verbs, refused, floor)
@@ -155,6 +162,13 @@ def clips(source: Verb | Graph, tasks: list[ClipTask]) -> list[Made | AdverbsErr
                     feet = measure_feet(source, planted, report, floor) if report is not None else None
                     out[i] = Made(planted, feet, source.name, one.notes + (list(report.warnings) if report is not None else []))
     return out
+
+
+def _alone(source: Verb | Graph, task: ClipTask) -> Made | AdverbsError:
+    try:
+        return clip(source, task)
+    except (AdverbsError, ArithmeticError, ValueError) as e:
+        return e
 
 
 @dataclass
