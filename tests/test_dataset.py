@@ -314,3 +314,14 @@ def test_performances_stepped_together_are_each_the_performance_alone():
         assert np.array_equal(made.motion.translations, alone.motion.translations), task
         assert made.played == alone.played and made.warnings == alone.warnings
         assert any("swim" in w for w in made.warnings) == ("swim" in task.script)
+
+
+def test_the_command_makes_the_same_dataset_on_its_own_local_cluster(reference, tmp_path):
+    """`adverbs dataset SPEC --out DIR --workers 2`: a LocalCluster of its own (127.0.0.1, no dashboard), a line per
+    shard on stderr (not a terminal), the summary on stdout, and the files of the dataset made in one process."""
+    r = run("dataset", _spec(tmp_path), "--out", tmp_path / "ds", "--workers", "2", timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert f"{CLIPS} clips in {SHARDS} shards; {CLIPS} clips made (1 failed)" in r.stdout and "on 2 workers" in r.stdout
+    assert sum(line.startswith("shard ") for line in r.stderr.splitlines()) == SHARDS
+    assert "dashboard" not in r.stderr and "8787" not in r.stderr
+    assert _files(tmp_path / "ds") == _files(reference)
