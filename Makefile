@@ -50,6 +50,7 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/runtime.py
 	$(BIN)/python benchmarks/long_run.py
 	$(BIN)/python benchmarks/viewer.py
+	$(BIN)/python benchmarks/dataset.py
 
 clean:
 	rm -rf $(VENV) out .pytest_cache tests/js/node_modules

@@ -13,6 +13,7 @@ The package is cut in layers, each a subpackage that imports only from the ones 
 | :mod:`adverbs.feet` | planted feet: the foot planter (state per creature, its compiled loop), offline planting, measures |
 | :mod:`adverbs.graph` | verb graphs: specs, transitions, the planner, creatures stepping through them |
 | :mod:`adverbs.runtime` | the event loop and clocks, the frame as one compiled pass, simulations, timed scripts |
+| :mod:`adverbs.dataset` | motion datasets: clips over adverb spaces and scripts, on Dask, sharded, a Parquet manifest |
 | :mod:`adverbs.apps` | the command line and evaluation |
 
 What most users need is re-exported here, so ``import adverbs`` is enough.
@@ -51,6 +52,7 @@ __all__ = [
     "BVHError",
     "Clip",
     "CommandRefused",
+    "DatasetSpecError",
     "Creature",
     "Cue",
     "Constraint",
@@ -59,6 +61,7 @@ __all__ = [
     "FlatFloor",
     "FootPlanter",
     "Graph",
+    "MotionDataset",
     "GraphSpecError",
     "HeightMapFloor",
     "LegChains",
@@ -72,11 +75,13 @@ __all__ = [
     "build_from_spec",
     "build_verb",
     "cut_steps",
+    "dataset",
     "find_contacts",
     "foot_drift",
     "format_bvh",
     "forward_kinematics",
     "ik",
+    "load_dataset",
     "load_graph",
     "load_spec",
     "load_verb",
@@ -98,3 +103,15 @@ __all__ = [
     "write_motion",
 ]
 __version__ = "0.1.0"
+_DATASET = ("dataset", "load_dataset", "MotionDataset", "DatasetSpecError")
+
+
+def __getattr__(name: str):
+    """The dataset layer, imported when first asked for (it brings pyarrow and scipy.stats, which nothing else needs):
+    ``adverbs.dataset`` is its subpackage, callable (``adverbs.dataset(SPEC, OUT)`` makes a dataset)."""
+    if name in _DATASET:
+        import importlib
+
+        package = importlib.import_module(".dataset", __name__)
+        return package if name == "dataset" else getattr(package, name)
+    raise AttributeError(f"module 'adverbs' has no attribute {name!r}")

@@ -18,6 +18,7 @@
     adverbs render MOTION.bvh ... -o OUT.gif|OUT.mp4|OUT.png [--camera C] [--fps F] [--size WxH] [--fixed] [--floor ...]
     adverbs demo [--out DIR]
     adverbs view [GRAPH.toml | VERB] [--creatures N] [--host H] [--port P] [--fps F] [--seed S] [--no-ik]
+    adverbs dataset SPEC.toml --out DIR [--workers N | --scheduler ADDRESS] [--dashboard [ADDRESS]] [--check]
 
 Errors in the input print one line naming the file and line and exit with status 1.
 """
@@ -122,6 +123,16 @@ def _number(text: str, zero: bool) -> float:
     if not (np.isfinite(value) and (value >= 0 if zero else value > 0)):
         raise argparse.ArgumentTypeError(f"expected a {'number ≥ 0' if zero else 'positive number'}, got {text!r}")
     return value
+
+
+def _workers(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+    if not 0 <= n <= 4096:
+        raise argparse.ArgumentTypeError(f"must be from 0 to 4096, got {n}")
+    return n
 
 
 def _seed(text: str) -> int:
@@ -281,6 +292,24 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--start", metavar="VERB", help="with --play: the verb to start in (default: the graph's)")
     p.set_defaults(graph_parser=p)
     scene.add_parsers(sub, _positive, _seed)
+
+    p = sub.add_parser(
+        "dataset", help="a motion dataset from a spec: verbs over their adverb space, graphs under random scripts, on Dask",
+        description=(
+            "Make the clips a dataset spec (TOML; datasets/ has examples) asks for: each verb at adverb points drawn over "
+            "its examples' range (grid, uniform, Sobol, Latin hypercube or listed), each graph under random scripts; "
+            "feet planted; written in shards (NumPy arrays, BVH, glTF) with a Parquet manifest, as shards finish. A run "
+            "that stopped is resumed by the same command: finished shards are skipped. By default on a local Dask "
+            "cluster of one worker process per core (127.0.0.1, no dashboard); --workers 0 in this process alone."
+        ),
+    )  # fmt: skip
+    p.add_argument("spec", type=Path, metavar="SPEC.toml")
+    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="the dataset's folder (new, empty, or this dataset's to resume)")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=_workers, help="worker processes of the local cluster (default: one per core; 0: no cluster)")
+    where.add_argument("--scheduler", metavar="ADDRESS", help="an existing Dask cluster's scheduler (tcp://HOST:8786)")
+    p.add_argument("--dashboard", nargs="?", const=True, default=False, metavar="ADDRESS", help="serve the local cluster's dashboard (default :8787)")
+    p.add_argument("--check", action="store_true", help="check the spec, build its verbs and plan the clips; make nothing")
     return parser
 
 
@@ -560,6 +589,27 @@ def _graph(args: argparse.Namespace) -> None:
             _print_graph(d)
 
 
+def _dataset(args: argparse.Namespace) -> None:
+    from ..dataset import dataset, prepare
+
+    if args.check:
+        prepared = prepare(args.spec, lambda s: print(f"  {s}", file=sys.stderr))
+        ok = f"{args.spec}: {len(prepared.tasks):,} clips in {len(prepared.shards)} shards"
+        print(f"{ok} of {prepared.spec.shard_size}, from {len(prepared.sources)} sources; formats {', '.join(prepared.spec.formats)}")
+        return
+    print(f"reading {args.spec}", file=sys.stderr)
+    try:
+        summary = dataset(args.spec, args.out, workers=args.workers, scheduler=args.scheduler, dashboard=args.dashboard, progress=True)
+    except KeyboardInterrupt:
+        print(f"adverbs: the finished shards are kept in {args.out}; the same command makes the rest", file=sys.stderr)
+        raise
+    print(summary.line())
+    for shard, why in summary.shard_errors:
+        print(f"adverbs: shard {shard} failed: {why}", file=sys.stderr)
+    if summary.shard_errors:
+        raise AdverbsError(f"{args.out}: {len(summary.shard_errors)} shards not made; run the same command again to make them")
+
+
 def _run(args: argparse.Namespace) -> None:
     output = getattr(args, "output", None)
     if args.command in ("convert", "synth", "graph") and output is not None:
@@ -658,6 +708,8 @@ def _run(args: argparse.Namespace) -> None:
         print(f"wrote {args.output}: {verb.name}{how} at {values}; {clip.num_frames} frames, cycle {k[-1]:.3f} s; {feet}")
     elif args.command == "graph":
         _graph(args)
+    elif args.command == "dataset":
+        _dataset(args)
     elif args.command == "figure":
         from .figures import figure, is_run, run_figure
 

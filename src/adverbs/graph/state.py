@@ -90,10 +90,12 @@ class GraphState:
 def new_state(
     graph: Graph, creatures: int = 1, seed: int = 0, start: str | int | Sequence[str | int] | None = None,
     points: np.ndarray | None = None, root: np.ndarray | None = None, stay: bool | np.ndarray = False,
+    seeds: Sequence[int] | None = None,
 ) -> GraphState:  # fmt: skip
     """C creatures at the start of ``start`` (default the graph's; or one verb per creature), adverbs ``points (C, A)``
     (default the graph's defaults), roots ``(C, 3)``; each draws its default transitions from its own generator
-    (``seed`` spawns them), or with ``stay (C,)`` keeps playing its verb (see :func:`command`)."""
+    (``seed`` spawns them; or ``seeds (C,)``: creature ``k`` draws as the one creature of ``new_state(graph, 1,
+    seeds[k])`` does, whatever the others), or with ``stay (C,)`` keeps playing its verb (see :func:`command`)."""
     if isinstance(creatures, bool) or not isinstance(creatures, int | np.integer) or creatures < 1:
         raise AdverbsError(f"creatures must be a whole number ≥ 1, got {creatures!r}")
     c = int(creatures)
@@ -113,7 +115,7 @@ def new_state(
     state = GraphState(
         graph, p, v, np.zeros(c), np.full(c, -1), np.zeros(c), np.full(c, -1), np.zeros(c), np.zeros(c),
         np.zeros((c, 4)), r, np.zeros(c), [[] for _ in range(c)],
-        [np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(c)], np.full(c, -1), np.zeros(c),
+        _generators(c, seed, seeds), np.full(c, -1), np.zeros(c),
         np.zeros(c, dtype=bool), np.zeros((c, j, 3)), np.zeros((c, j, 3)), np.zeros((c, j, 3)), np.zeros((c, j, 3)),
         np.zeros((c, 3)), np.full(c, 1e9), np.full(c, INTERRUPT_HALFLIFE),
     )  # fmt: skip
@@ -124,6 +126,15 @@ def new_state(
         _settle_queue(state, k)
     return state
 
+
+
+def _generators(c: int, seed: int, seeds: Sequence[int] | None) -> list[np.random.Generator]:
+    """Each creature's generator: spawned from ``seed``, or the first spawned from each of ``seeds``."""
+    if seeds is None:
+        return [np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(c)]
+    if len(seeds) != c:
+        raise AdverbsError(f"seeds gives {len(seeds)} seeds for {c} creatures")
+    return [np.random.default_rng(np.random.SeedSequence(int(s)).spawn(1)[0]) for s in seeds]
 
 
 def _settle_queue(state: GraphState, c: int, g: float | None = None) -> None:

@@ -69,6 +69,7 @@ TIME_TOLERANCE = 1e-9  # generic time: how far a hold's times may be out of orde
 READ_COPIES = 8  # the verb holds its arrays several times over (read, frozen, by control point, ...)
 JSON_SHARE = 256  # verb.json may take 1/256 of the memory limit: parsed, JSON takes up to some 20 times its text
 
+_EPOCH = (1980, 1, 1, 0, 0, 0)  # the date of every member: zip's earliest, so equal verbs are equal bytes
 _FIELDS = {
     "format", "version", "name", "cyclic", "fps", "num_cp", "keytime_names", "constraints", "holds", "floor",
     "smoothing", "shrinkage", "goal_chain", "timing", "adverbs", "examples", "encoding", "skeleton",
@@ -98,6 +99,16 @@ def save_verb(verb: Verb, path: str | Path) -> None:
     failure is an :class:`~adverbs.errors.AdverbsError` naming the file.
     """
     path = Path(path)
+    text, arrays = _contents(verb, path)
+    try:
+        with atomic_path(path) as tmp, open(tmp, "xb") as f:
+            _write_archive(f, text, arrays)
+    except OSError as e:
+        raise AdverbsError(f"{path}: cannot write: {e.strerror or e}") from None
+
+
+def _contents(verb: Verb, path: Path | str) -> tuple[str, dict[str, np.ndarray]]:
+    """``verb.json``'s text and the arrays of a verb file; a number that is not finite is refused naming ``path``."""
     enc, skel = verb.encoding, verb.skeleton
     meta = {
         "format": FORMAT,
@@ -160,15 +171,36 @@ def save_verb(verb: Verb, path: str | Path) -> None:
         raise AdverbsError(
             f"{path}: cannot write verb {verb.name!r}: its metadata holds a number that is not finite"
         ) from None
-    try:
-        with atomic_path(path) as tmp, open(tmp, "xb") as f, zipfile.ZipFile(f, "w", zipfile.ZIP_DEFLATED) as z:
-            z.writestr("verb.json", text)
-            for key, value in arrays.items():
-                buf = io.BytesIO()
-                np.lib.format.write_array(buf, np.ascontiguousarray(value), allow_pickle=False)
-                z.writestr(f"{key}.npy", buf.getvalue())
-    except OSError as e:
-        raise AdverbsError(f"{path}: cannot write: {e.strerror or e}") from None
+    return text, arrays
+
+
+def _write_archive(f, text: str, arrays: dict[str, np.ndarray]) -> None:
+    """The zip archive of a verb file into the open binary file ``f``: the same bytes for the same verb (every member
+    dated 1980-01-01, so a verb built twice, or shipped to another machine, is one file)."""
+    with zipfile.ZipFile(f, "w", zipfile.ZIP_DEFLATED) as z:
+        z.writestr(zipfile.ZipInfo("verb.json", _EPOCH), text, zipfile.ZIP_DEFLATED)
+        for key, value in arrays.items():
+            buf = io.BytesIO()
+            np.lib.format.write_array(buf, np.ascontiguousarray(value), allow_pickle=False)
+            z.writestr(zipfile.ZipInfo(f"{key}.npy", _EPOCH), buf.getvalue(), zipfile.ZIP_DEFLATED)
+
+
+def verb_bytes(verb: Verb) -> bytes:
+    """The bytes :func:`save_verb` writes, in memory: a built verb as data, to ship (to a worker) or to hash."""
+    buf = io.BytesIO()
+    _write_archive(buf, *_contents(verb, f"<verb {verb.name!r}>"))
+    return buf.getvalue()
+
+
+def verb_from_bytes(data: bytes, name: str | Path = "<verb bytes>") -> Verb:
+    """A verb from the bytes of a verb file (:func:`verb_bytes`), checked as :func:`load_verb` checks a file; ``name``
+    stands for the file in messages."""
+    path = Path(name)
+    if len(data) > _budget():
+        raise _too_big(f"{path}: the file", len(data))
+    archive = _Archive(path, bytes(data))
+    with archive.zip:
+        return _read_archive(path, archive)
 
 
 def load_verb(path: str | Path) -> Verb:

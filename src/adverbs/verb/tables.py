@@ -342,7 +342,9 @@ class Verb:
         The examples' own, blended; kept in order (foot-flat ≤ heel-off ≤ toe-off, a cycle at most) where
         extrapolated weights would cross them.
         """
-        spans = np.tensordot(np.asarray(weights, dtype=float), self.hold_table, axes=(-1, 0))
+        # einsum's own loop, not BLAS: a creature's times are then the same bits alone or in a crowd (BLAS sums a
+        # product of one row otherwise than of many, and a dataset's clip must not depend on its neighbours)
+        spans = np.einsum("...e,elk->...lk", np.asarray(weights, dtype=float), self.hold_table)
         opens = np.array([h.open for h in self.holds])
         close = np.clip(spans[..., 2], 1e-6, 1.0 if self.cyclic else None)
         if not self.cyclic:
