@@ -25,6 +25,7 @@ from ..errors import AdverbsError, AdverbsWarning
 from ..feet.measures import FootMetrics, measure_feet
 from ..feet.offline import plant_feet, report_of_modes
 from ..feet.planter import LIFTED
+from ..graph.easing import EASE, Easing
 from ..graph.performance import MAX_SECONDS, Cue, perform, repeat
 from ..graph.planted import plant, planter
 from ..graph.player import Frame, first_frame, step
@@ -230,6 +231,7 @@ def _together(graph: Graph, fps: float, creatures: list[_Creature]) -> list[tupl
     turns, drops = [np.zeros((n, legs)) for n in frames], [np.zeros(n) for n in frames]
     verbs = [np.empty(n, dtype=np.int64) for n in frames]
     unreachable, miss, refused, next_cue = [0] * c, [0.0] * c, [[] for _ in range(c)], [0] * c
+    easing = Easing(state.points)  # adverb cues eased as perform() eases them
     for f in range(max(frames)):
         now = (f - int(from_start)) * dt
         for k, x in enumerate(creatures):  # the cues due, as perform() takes them
@@ -238,13 +240,15 @@ def _together(graph: Graph, fps: float, creatures: list[_Creature]) -> list[tupl
                 next_cue[k] += 1
                 try:
                     if cue.adverbs:
-                        p = graph.point({**dict(zip(graph.adverb_names, state.points[k])), **cue.adverbs})
-                        state.points[k] = graph.check_point(p)
+                        p = graph.point({**dict(zip(graph.adverb_names, easing.to[k])), **cue.adverbs})
+                        easing.set(k, state.points[k], graph.check_point(p), now, EASE, state.points)
                     if cue.verb is not None:
                         command(state, k, cue.verb)
                 except (CommandRefused, AdverbsError) as e:
                     refused[k].append((cue.time, str(e)))
-        frame = first_frame(state) if from_start and f == 0 else step(state, dt)
+        first = from_start and f == 0
+        easing.apply(state.points, now if first else now + dt)
+        frame = first_frame(state) if first else step(state, dt)
         for k in range(c):
             if f >= frames[k]:
                 continue
