@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import itertools
 import warnings
 
 import numpy as np
 import pytest
-from conftest import VERB_SPECS
+from conftest import SPECS as SPECS_DIR, VERB_SPECS
 from test_cli import run
 
 from adverbs import AdverbsError
@@ -190,3 +191,58 @@ def test_a_foot_that_never_comes_down_is_reported_from_the_frames(verbs):
     lie = measure_feet(verb, raised, report)  # the same report: only the frames changed
     np.testing.assert_allclose(lie.aloft, ok.aloft + 0.1, rtol=0, atol=1e-6)
     assert "never down" in lie.line()
+
+
+def _corners(verb, past=0.25):
+    lo, hi = verb.points.min(axis=0), verb.points.max(axis=0)
+    return [np.array(c) for c in itertools.product(*[(a - past * (b - a), b + past * (b - a)) for a, b in zip(lo, hi)])]
+
+
+def _held_from_frames(verb, planted, report):
+    """Read off the frames alone: the farthest a toe moves across the floor while the report says it is held, and the
+    farthest it is from its contact height while the report says its foot is flat (metres)."""
+    from adverbs.feet.planter import effector_joints
+
+    pos = planted.global_positions()[:, effector_joints(verb)]
+    drift = off = 0.0
+    for i, h in enumerate(verb.holds):
+        if h.height is None:
+            continue
+        for a, b in report.phases[i]:
+            drift = max(drift, float(np.linalg.norm(pos[a:b, i, [0, 2]] - pos[a, i, [0, 2]], axis=-1).max()))
+        for a, b in report.flat[i]:
+            off = max(off, float(np.abs(pos[a:b, i, 1] - verb.floor - h.height).max()))
+    return drift, off
+
+
+@pytest.mark.parametrize("spec", sorted(p.stem for p in SPECS_DIR.glob("*.toml")))
+def test_at_every_far_corner_the_feet_are_where_the_report_says(spec):
+    """25% past every corner of every shipped verb's examples: read off the frames, every held toe stays within 1 cm of
+    where the report says (its drift, and its height while flat), or the report names the foot as never down. A
+    report made from the planter's state, not the frames (frames raised behind its back), is caught."""
+    from adverbs.feet.measures import measure_feet
+    from adverbs.feet.planter import LIFTED
+    from adverbs.verb.fit import build_from_spec
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", AdverbsWarning)
+        verb = build_from_spec(SPECS_DIR / f"{spec}.toml")
+    failures = []
+    for p in _corners(verb):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", AdverbsWarning)
+            clip, k = verb.synthesize(p)
+        planted, report = plant_feet(verb, clip, k, None, p)
+        m = measure_feet(verb, planted, report)
+        drift, off = _held_from_frames(verb, planted, report)
+        said_drift = float(np.max(m.toe_drift, initial=0.0))
+        if drift > said_drift + 0.01 or (off > m.held_height + 0.01 and not m.aloft.max() > LIFTED):
+            failures.append(f"{np.round(p, 3)}: frames {drift * 1000:.0f} / {off * 1000:.0f} mm, the report {m.line()}")
+    assert not failures, "\n".join(failures)
+    # The lie: the same report with the body raised 3 cm over its last flat hold (as a report from state would be).
+    i, (a, b) = next((i, r[-1]) for i, r in enumerate(report.flat) if r)
+    raised = planted.translations.copy()
+    raised[a:b, 0, 1] += 0.03
+    _, off = _held_from_frames(verb, planted.replace(translations=raised), report)
+    assert off > m.held_height + 0.02  # the frames' own reading sees what a report from state would not
+    assert measure_feet(verb, planted.replace(translations=raised), report).held_height >= off - 1e-9  # ours does
