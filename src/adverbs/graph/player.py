@@ -26,8 +26,9 @@ and a generic time ``g`` in it — or is in a transition from one instance (A) t
   the weight climbs back by the same cosine law); otherwise B plays on alone from the pose shown (an
   offset, half-life at least ``INTERRUPT_HALFLIFE``) and the new path starts from B — at once, and
   inertially, when B is a one-shot verb whose way on is already open.
-* **Feet.** In a cosine blend a foot is held where both verbs hold it, or A does and still has the weight (:func:`hold_phases`); a foot both verbs hold stays held; blending two stances would slide it, so the body is
-  carried by the held feet's slip instead (:func:`_keep_feet`). :class:`GraphFeet` re-places a foot a
+* **Feet.** In a cosine blend a foot is held where both verbs hold it, where A does and still has the weight,
+  or where B does and A has begun to land it (:func:`hold_phases`). Blending two stances would slide a held
+  foot, so the body is carried by the held feet's slip instead (:func:`_keep_feet`). :class:`GraphFeet` re-places a foot a
   verb playing alone has somewhere else (``REPLANT``).
 * **Cycles.** A cyclic verb instance plays one cycle; its loop into itself is a transition like any
   other. Where a target region ends at the end of a cyclic verb's cycle, B plays that region as the
@@ -66,7 +67,7 @@ from .clocks import _by_verb, _clock, _generic, _hold_times, _later, _place, _ra
 from .queue import _finish, _start
 from .state import _LATE, GraphState
 
-LANDS = 1.0  # a foot B holds lands once the swing lift of A, which swings it, has faded below this (A lands it)
+LANDS = 1.0  # a foot B holds and A swings lands once A's swing lift is below this: as soon as A begins to land it
 
 
 @dataclass
