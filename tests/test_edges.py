@@ -163,3 +163,29 @@ def test_a_gesture_begun_from_a_stand_cut_short_moves_no_faster_than_its_own(ban
         if speed[max(a - 1, 0) : b].max() > 1.5 * max(own["idle"], own[t])
     ]
     assert not failures, "\n".join(failures)
+
+
+@pytest.mark.parametrize("seed, adverbs", [(6, {"valence": 0.3, "energy": 0.2}), (12, {"valence": -0.4, "energy": 0.5})])
+def test_a_run_slows_into_a_walk_without_stopping(bandai, seed, adverbs):
+    """Run → walk: the hips slowed to 0.06-0.33 m/s inside every blend, then lurched on (the body was carried by a
+    stance foot the walk puts further ahead). Now it goes at the blend of the two verbs' speeds: never slower than
+    half the walk's own slowest, and never faster than the run's own fastest."""
+    cues = [Cue(t, v) for t, v in [(0.3, "walk"), (2.5, "run"), (6.0, "walk"), (9.0, "run"), (12.5, "walk")]]
+    perf = perform(bandai, cues, seconds=15.0, seed=seed, adverbs=adverbs)
+    hips = bandai.skeleton.names.index("Hips")
+
+    def speeds(p):
+        xz = p.planted.global_positions()[:, hips][:, [0, 2]]
+        return np.r_[0.0, np.linalg.norm(np.diff(xz, axis=0), axis=1) * FPS]
+
+    own = {}
+    for verb in ("walk", "run"):
+        alone = perform(bandai, [], seconds=4.0, seed=seed, start=verb, adverbs=adverbs)
+        own[verb] = speeds(alone)[30:]
+    speed = speeds(perf)
+    names = bandai.verb_names
+    slowing = [k for k, t in enumerate(bandai.transitions) if (names[t.source], names[t.target]) == ("run", "walk")]
+    inside = np.isin(perf.active, slowing)  # the blends themselves
+    assert inside.sum() > 10, "the run never slowed into a walk"
+    assert speed[inside].min() >= 0.5 * own["walk"].min(), (speed[inside].min(), own["walk"].min())
+    assert speed[inside].max() <= own["run"].max() + 0.05, (speed[inside].max(), own["run"].max())

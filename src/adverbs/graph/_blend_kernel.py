@@ -45,9 +45,10 @@ def keep_feet_row(parents, tips, weights, rot, trans, shown_rot, shown_trans, bo
     ``root (3,)``; ``now_*``, ``was_*``: forward kinematics' scratch ``(1, J, 3)``, ``(1, J, 4)``.
 
     The root's step from ``(x0, z0)`` is then held to ``lo`` to ``hi`` m/s, along the root's advance by the
-    blended velocities (``0`` and ``inf``: any). In a cosine blend of two verbs the graph holds it to the faster
-    verb's own speed: carried by the whole slip of feet the verbs stand at different places under the body, a
-    start threw the body past the walk's speed. The legs take up the rest (the planter holds the feet).
+    blended velocities (``0`` and ``inf``: any). In a cosine blend of two verbs the graph holds it to the blend of
+    their own speeds, ``α |v_A| + (1 − α) |v_B|``: carried by the whole slip of feet the verbs stand at different
+    places under the body, a run braked nearly to a standstill on its way into a walk, and a start threw the body
+    past the walk's speed. The legs take up the rest (the planter holds the feet, and re-places one left behind).
     """
     total = 0.0
     for k in range(tips.shape[0]):

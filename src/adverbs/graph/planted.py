@@ -1,5 +1,5 @@
 """A verb graph's planted feet: the foot planter of :mod:`adverbs.feet` fed each frame's hold phases, and the feet
-it re-places when a verb playing alone has them somewhere else.
+it re-places when the verbs have them somewhere else.
 """
 
 from __future__ import annotations
@@ -17,15 +17,17 @@ from .player import Frame
 
 REPLANT = 0.06  # metres: a held foot this far (across the floor) from where the verb playing has it is re-placed
 REPLANTED = 0.01  # metres: ... until the released foot is this near the verb's again
+LEFT_BEHIND = 0.12  # metres: in a blend, a held foot this far from where the verbs have it is re-placed
 
 
 @dataclass
 class GraphFeet:
     """A graph's foot planter for C creatures (:func:`planter`), and which feet it is moving to a new place.
 
-    A foot held across verbs that stand it in different places (a stand with the feet apart, then a walk)
-    ends up held where the verb playing does not have it, and the leg stretches. Such a foot, once a verb
-    plays alone and it is ``REPLANT`` away, is let go (the planter's inertialized release: it lifts, then
+    A foot held across verbs that stand it in different places (a stand with the feet apart, then a walk), or
+    that a blend carries the body away from (a run slowing into a walk at the blend of the two speeds; a loop
+    moving the legs by its cycle's seam), ends up held where the verbs do not have it, and the leg stretches or the
+    hips drop. Such a foot, flat on the floor and ``REPLANT`` from where the verbs have it, is let go (the planter's inertialized release: it lifts, then
     travels, at least the planter's least swing lift over the floor, so it steps rather than glides) and held
     again once it has come within ``REPLANTED`` of where the verb puts it.
     """
@@ -64,12 +66,11 @@ def planter(graph: Graph, creatures: int = 1, floor: Floor | None = None) -> Gra
     return GraphFeet(FootPlanter(holding[0], creatures, floor), np.zeros((creatures, len(tips)), dtype=bool))
 
 
-def plant(feet: GraphFeet, frame: Frame, dt: float, alone: np.ndarray | None = None):
-    """The frame's feet planted: rotations ``(C, J, 4)``, translations ``(C, J, 3)`` and the IK result.
-
-    ``alone (C,)``: which creatures play one verb alone this frame (no blend, no decaying offset); only their
-    feet are re-placed (see :class:`GraphFeet`). Default: none.
-    """
+def plant(feet: GraphFeet, frame: Frame, dt: float, alone: np.ndarray):
+    """The frame's feet planted: rotations ``(C, J, 4)``, translations ``(C, J, 3)`` and the IK result; feet held
+    too far from where the verbs have them are re-placed (see :class:`GraphFeet`): ``REPLANT`` away where
+    ``alone (C,)`` says a creature plays one verb (alone or in its own loop; no decaying offset), ``LEFT_BEHIND`` in
+    a blend of two verbs."""
     p = feet.planter
     held = frame.held & ~feet.replanting
     swing = np.where(feet.replanting, 1.0, frame.swing)  # a foot re-placed steps: it swings at the least lift
@@ -77,8 +78,8 @@ def plant(feet: GraphFeet, frame: Frame, dt: float, alone: np.ndarray | None = N
     if feet.replanting.any():
         settled = np.linalg.norm(p._offset(), axis=-1) < REPLANTED
         feet.replanting &= ~((p.mode == FREE) & settled & (p.since[..., 0] > 0))
-    if alone is not None:
-        away = p.prev_free - p.target
-        gap = np.hypot(away[..., 0], away[..., 2])
-        feet.replanting |= alone[:, None] & (p.mode == BALL) & (p.turn == 0.0) & (gap > REPLANT)
+    away = p.prev_free - p.target
+    gap = np.hypot(away[..., 0], away[..., 2])
+    far = np.where(alone[:, None], REPLANT, LEFT_BEHIND)
+    feet.replanting |= (p.mode == BALL) & (p.turn == 0.0) & (gap > far)
     return out

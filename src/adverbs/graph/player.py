@@ -285,7 +285,8 @@ def _step(state: GraphState, dt: float) -> Frame:
     held, roll, swing = hold_phases(state)
     blended = np.zeros(state.creatures, dtype=bool)
     blended[live] = True
-    state.alone = (state.active < 0) & ~blended
+    # One verb (alone, or looping into itself: its instances keep their feet alike) and no decaying offset.
+    state.alone = ((state.active < 0) | ~state.graph.between_verbs[state.active]) & ~blended
     new_root = _keep_feet(state, rot, trans, new_root, held, roll, blended, _speeds(state, base), dt)
     vel = _velocity(state.root, new_root, dt)
     state.root = new_root
@@ -305,7 +306,7 @@ def first_frame(state: GraphState) -> Frame:
     base = _sample(state, state.g, state.g_into)
     rot, trans = _decode(state, base, state.root)
     held, roll, swing = hold_phases(state)
-    state.alone = state.active < 0
+    state.alone = (state.active < 0) | ~state.graph.between_verbs[state.active]
     state.moving = base.velocity.copy()
     state.shown, state.held_before = (rot, trans, base.velocity.copy()), held
     return Frame(rot, trans, state.root.copy(), base.velocity.copy(), held, roll, swing)
@@ -319,8 +320,8 @@ def _velocity(old: np.ndarray, new: np.ndarray, dt: float) -> np.ndarray:
 
 
 def _speeds(state: GraphState, base: _Base) -> np.ndarray:
-    """The fastest the body of a creature in a cosine blend goes (m/s): the faster of the two verbs' own horizontal
-    speeds (each at its own clock, as it goes alone); others ``inf``."""
+    """The speed ``(C,)`` (m/s) the body of a creature in a cosine blend goes at: the blend of the two verbs' own
+    horizontal speeds, ``α |v_A| + (1 − α) |v_B|`` (each at its own clock, as it goes alone); others ``inf``."""
     n = state.creatures
     out = np.full(n, np.inf)
     rows = np.flatnonzero((state.active >= 0) & ~state.inertial)
@@ -331,7 +332,7 @@ def _speeds(state: GraphState, base: _Base) -> np.ndarray:
         speed_a[sel] = np.hypot(d[:, 0], d[:, 1])
     for sel, d in base.b.values():
         speed_b[sel] = np.hypot(d[:, 0], d[:, 1])
-    out[rows] = np.maximum(speed_a[rows], speed_b[rows])
+    out[rows] = base.alpha[rows] * speed_a[rows] + (1.0 - base.alpha[rows]) * speed_b[rows]
     return out
 
 
@@ -348,10 +349,10 @@ def _keep_feet(
     ``trans`` (the body root's) is moved with it, in place. A verb's loop into itself blends two instances of one
     verb, which keep their feet alike: its root is the verb's own, so it turns and travels as the verb does. A
     decaying offset (an inertial blend, an interruption) moves the legs as a blend does, and the body is carried
-    the same way. In a cosine blend the carried body goes no faster than ``speed (C,)`` m/s (:func:`_speeds`, the
-    faster verb's own): carried by the whole slip, a start threw the body past the walk's speed (the planter's IK
-    takes up the rest). Carried, a run→walk still brakes hard inside the blend: holding it to the blend of the
-    two speeds instead left the held foot 20-30 cm behind the walk's stance and dropped the hips 40 cm.
+    the same way. In a cosine blend the carried body goes at ``speed (C,)`` m/s (:func:`_speeds`, the blend of the
+    verbs' own), along the root's advance: carried by the whole slip, a run braked nearly to a standstill on its
+    way into a walk and lurched on, and a start threw the body past the walk's speed. The planter's IK takes up the
+    rest, and a held foot the body leaves too far behind is re-placed (:class:`~adverbs.graph.planted.GraphFeet`).
     """
     if state.shown is None or state.held_before is None:
         return root
@@ -366,7 +367,7 @@ def _keep_feet(
     keep_feet(
         graph.skeleton.parents, graph.feet_array, rows, w, rot, trans, state.shown[0], state.shown[1],
         graph.verbs[0].encoding.body_root, graph.inverse_above_body, root, state.root,
-        np.zeros(len(rows)), np.where(cosine, speed[rows], np.inf), dt,
+        np.where(cosine, speed[rows], 0.0), np.where(cosine, speed[rows], np.inf), dt,
     )  # fmt: skip
     return root
 

@@ -52,7 +52,7 @@ from ..verb._sampling_kernel import GENERIC, VELOCITIES, goal_weight, phase, que
 STARTED, FINISHED = 1, 2  # events: a transition started, or finished, this frame
 FREE, BALL = 0, 2  # planting.FREE, planting.BALL
 # Where each constant sits in ``k_`` (see frame.FramePass).
-_LATE, _MIN_DURATION, _INERTIAL, _LN2, _REPLANT, _REPLANTED, _SWING, _LIFT, _LANDS = range(9)
+_LATE, _MIN_DURATION, _INERTIAL, _LN2, _REPLANT, _REPLANTED, _SWING, _LIFT, _LANDS, _LEFT_BEHIND = range(10)
 
 
 # ----- the tables, packed: per verb, a slice of a flat array (see frame.tables and FramePass) ------------------
@@ -421,7 +421,7 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
                     swing[c, i] = sb[i]
                 elif not (hb[i] and not ha):
                     swing[c, i] = min(sa, sb[i])
-    alone[c] = not is_moving and not live
+    alone[c] = (not is_moving or not transitions[3][active[c]]) and not live  # one verb (player._step)
     # The body carried by the held feet's slip in a blend (player._keep_feet).
     root[c, 0], root[c, 1], root[c, 2] = x1, z1, h1
     if has_shown and has_held_before:
@@ -429,12 +429,12 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
         if live or cosine:
             for i in range(feet.shape[0]):
                 wts[i] = (1.0 if (held[c, i] and held_before[c, i]) else 0.0) * (1.0 - roll[c, i])
-            hi = np.inf  # in a cosine blend no faster than the faster verb's own (player._speeds), else any
+            lo, hi = 0.0, np.inf  # in a cosine blend the blend of the verbs' own speeds (player._speeds), else any
             if cosine:
-                hi = max(math.hypot(d_a[0], d_a[1]), math.hypot(d_b[0], d_b[1]))
+                lo = hi = alpha * math.hypot(d_a[0], d_a[1]) + (1.0 - alpha) * math.hypot(d_b[0], d_b[1])
             keep_feet_row(
                 parents, feet, wts, rot[c : c + 1], trans[c : c + 1], shown_rot[c : c + 1], shown_trans[c : c + 1], body,
-                above_inv, root[c], fk_now_pos, fk_now_rot, fk_was_pos, fk_was_rot, x0, z0, 0.0, hi, dt,
+                above_inv, root[c], fk_now_pos, fk_now_rot, fk_was_pos, fk_was_rot, x0, z0, lo, hi, dt,
             )  # fmt: skip
     vel_out[c, 0], vel_out[c, 1], vel_out[c, 2] = root_velocity_row(x0, z0, h0, root[c, 0], root[c, 1], root[c, 2], dt)
     for i in range(feet.shape[0]):
@@ -545,8 +545,8 @@ def _plant(lo, hi, outputs, planted, feet, start, any_replanting, k_):  # pragma
                     norm = math.sqrt(sq)
                 if mode[c, i] == FREE and norm < k_[_REPLANTED] and since[c, i, 0] > 0:
                     replanting[c, i] = False
-            if alone[c] and mode[c, i] == BALL and turn[c, i] == 0.0:
+            if mode[c, i] == BALL and turn[c, i] == 0.0:
                 gap = math.hypot(prev_free[c, i, 0] - target[c, i, 0], prev_free[c, i, 2] - target[c, i, 2])
-                if gap > k_[_REPLANT]:
+                if gap > (k_[_REPLANT] if alone[c] else k_[_LEFT_BEHIND]):
                     replanting[c, i] = True
     return finite
