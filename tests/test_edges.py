@@ -189,3 +189,34 @@ def test_a_run_slows_into_a_walk_without_stopping(bandai, seed, adverbs):
     assert inside.sum() > 10, "the run never slowed into a walk"
     assert speed[inside].min() >= 0.5 * own["walk"].min(), (speed[inside].min(), own["walk"].min())
     assert speed[inside].max() <= own["run"].max() + 0.05, (speed[inside].max(), own["run"].max())
+
+
+@pytest.fixture(scope="module")
+def cmu():
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", AdverbsWarning)
+        return load_graph(GRAPHS / "cmu.toml")
+
+
+@pytest.mark.parametrize("seed, adverbs", [(3, {}), (7, {"walk_speed": 1.3, "turn": 20.0})])
+def test_the_cmu_walk_and_run_blend_on_their_feet_without_braking(cmu, seed, adverbs):
+    """The other skeleton, both ways between walk and run: no low toe travels 2 cm further than the verbs' own do
+    (the CMU capture's own toes skate 2-17 cm while low), and the pelvis never slows below half the walk's slowest."""
+    names = cmu.skeleton.names
+    toes, pelvis = [names.index(n) for n in ("ltoes", "rtoes")], names.index("pelvis")
+    cues = [Cue(t, v) for t, v in [(0.3, "walk"), (3.0, "run"), (6.0, "walk"), (9.0, "run"), (12.0, "walk")]]
+    perf = perform(cmu, cues, seconds=15.0, seed=seed, adverbs=adverbs)
+    pos = perf.planted.global_positions()
+    own_travel, own_slowest = 0.0, np.inf
+    for verb in ("walk", "run"):
+        alone = perform(cmu, [], seconds=5.0, seed=seed, start=verb, adverbs=adverbs).planted.global_positions()
+        own_travel = max(own_travel, low_travel(alone[:, toes], _contact(alone[:, toes]), np.arange(30, len(alone))))
+        if verb == "walk":
+            own_slowest = (np.linalg.norm(np.diff(alone[30:, pelvis][:, [0, 2]], axis=0), axis=1) * FPS).min()
+    speed = np.r_[np.inf, np.linalg.norm(np.diff(pos[:, pelvis][:, [0, 2]], axis=0), axis=1) * FPS]
+    windows = _windows(perf, cmu, {("walk", "run"), ("run", "walk")})
+    assert {(s, t) for s, t, _, _ in windows} == {("walk", "run"), ("run", "walk")}, windows
+    for s, t, a, b in windows:
+        travel = low_travel(pos[:, toes], _contact(pos[:, toes]), np.arange(a, b))
+        assert travel <= own_travel + 0.02, (s, t, a / FPS, travel, own_travel)
+        assert speed[a:b].min() >= 0.5 * own_slowest, (s, t, a / FPS, speed[a:b].min(), own_slowest)
