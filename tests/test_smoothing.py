@@ -98,10 +98,17 @@ def test_scores_are_leave_one_out_refits():
     np.testing.assert_allclose(smoothing_scores(pts, values, smoothings=lams, shrinkages=mus), want, rtol=1e-9, atol=0)
 
 
-def test_auto_picks_a_minimum_of_the_leave_one_out_score():
-    pts = _points(15, 2)
+def _noisy(seed):
+    """15 points over 2 adverbs and two noisy value columns, from their own generator (the module's RNG is drawn from
+    by whichever tests ran before on the same worker, so its draws here would depend on the test order)."""
+    rng = np.random.default_rng(seed)
+    pts = rng.uniform(-2, 2, size=(15, 2)) * [1.0, 30.0]
     smooth = np.sin(pts[:, :1] * 2) + np.cos(pts[:, 1:] / 20)
-    values = np.concatenate([smooth, pts[:, :1] * 0.5], axis=1) + RNG.normal(scale=0.3, size=(15, 2))  # noisy
+    return pts, np.concatenate([smooth, pts[:, :1] * 0.5], axis=1) + rng.normal(scale=0.3, size=(15, 2))
+
+
+def test_auto_picks_a_minimum_of_the_leave_one_out_score():
+    pts, values = _noisy(0)
     ip = AdverbInterpolator(pts, smoothing="auto", shrinkage="auto", values=values)
     s = ip.smoothing_scores
     assert s.shape == (len(rbf.SMOOTHING_GRID), len(rbf.SHRINKAGE_GRID))
@@ -109,7 +116,11 @@ def test_auto_picks_a_minimum_of_the_leave_one_out_score():
     neighbours = s[max(g - 1, 0) : g + 2, max(h - 1, 0) : h + 2]
     tie = rbf.AUTO_TIE * np.sum((values - values.mean(axis=0)) ** 2) / len(values)
     assert s[g, h] <= s.min() + tie and s[g, h] <= neighbours.min() + tie
-    assert ip.smoothing > 0  # noisy values: exact interpolation is not the best predictor of a left-out one
+    # Noisy values: exact interpolation is not the best predictor of a left-out one, in most draws of the noise (18 of
+    # 20 measured; one draw alone can pick 0, which made this test pass or fail by the order tests ran in).
+    draws = [_noisy(seed) for seed in range(20)]
+    picked = [AdverbInterpolator(p, smoothing="auto", shrinkage="auto", values=v).smoothing for p, v in draws]
+    assert sum(x > 0 for x in picked) >= 15, picked
     # Only one of them "auto": the other is held where it was given.
     only = AdverbInterpolator(pts, smoothing="auto", values=values)
     assert only.shrinkage == 0.0 and only.smoothing_scores.shape == (len(rbf.SMOOTHING_GRID), 1)
