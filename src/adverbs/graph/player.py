@@ -356,14 +356,15 @@ def _keep_feet(
     """
     if state.shown is None or state.held_before is None:
         return root
-    blending = offset | ((state.active >= 0) & ~state.inertial & state.graph.between_verbs[state.active])
+    cosine = (state.active >= 0) & ~state.inertial & state.graph.between_verbs[state.active]
+    blending = offset | cosine
     if not blending.any():
         return root
     rows = np.flatnonzero(blending)
+    cosine = cosine[rows]
     w = np.ascontiguousarray((held & state.held_before)[rows] * (1.0 - roll[rows]))
     graph = state.graph
     root = root.copy()
-    cosine = ((state.active >= 0) & ~state.inertial & state.graph.between_verbs[state.active])[rows]
     keep_feet(
         graph.skeleton.parents, graph.feet_array, rows, w, rot, trans, state.shown[0], state.shown[1],
         graph.verbs[0].encoding.body_root, graph.inverse_above_body, root, state.root,

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .structure import CommandRefused
-from .clocks import _sampling, duration
+from .clocks import _sampling, clock_of, duration
 from .state import INERTIAL_HALFLIFE, INTERRUPT_HALFLIFE, MIN_DURATION, _LATE, GraphState, _settle_queue, sync_head
 
 
@@ -118,7 +118,8 @@ def _start(state: GraphState, c: int, late: float, inertial: bool = False) -> No
     keys_b = _sampling(state, t.target, 1).keytimes[row]
     length = float(duration((sa, ea), (sb, eb), keys_a, keys_b, a.generic_keytimes, b.generic_keytimes)[0])
     if whole:  # not shorter than B's region: B's clock never runs faster than its own
-        length = max(length, float(duration((sb, eb), (sb, eb), keys_b, keys_b, b.generic_keytimes, b.generic_keytimes)[0]))
+        clocks_b = clock_of(np.array([[sb, eb]]), keys_b, b.generic_keytimes)[0]
+        length = max(length, float(clocks_b[1] - clocks_b[0]))
     state.active[c], state.into[c] = k, t.target
     state.regions[c] = (sa, ea, sb, eb)
     state.length[c] = max(length, MIN_DURATION)

@@ -170,7 +170,7 @@ def _start(c, late, k, verbs, transitions, caches, state, k_):  # pragma: no cov
     length_b = _clock_of(eb, target, 1, c, verbs, caches) - _clock_of(sb, target, 1, c, verbs, caches)
     duration = 0.5 * (length_a + length_b)
     if whole:
-        duration = max(duration, 0.5 * (length_b + length_b))
+        duration = max(duration, length_b)
     active[c], into[c] = k, target
     regions[c, 0], regions[c, 1], regions[c, 2], regions[c, 3] = sa, ea, sb, eb
     length[c] = max(duration, k_[_MIN_DURATION])
@@ -417,9 +417,9 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
                     roll[c, i] = max(ra, rb[i])
                 elif not first:
                     roll[c, i] = rb[i]
-                if ha and not hb[i]:
+                if ha and not hb[i]:  # the lift of the verb swinging it (B's; A's where only B holds it)
                     swing[c, i] = sb[i]
-                elif not (hb[i] and not ha):
+                elif ha == hb[i]:
                     swing[c, i] = min(sa, sb[i])
     alone[c] = (not is_moving or not transitions[3][active[c]]) and not live  # one verb (player._step)
     # The body carried by the held feet's slip in a blend (player._keep_feet).
