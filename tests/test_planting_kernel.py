@@ -28,7 +28,7 @@ FLOORS = {"flat": FlatFloor(0.0), "level 0.3": FlatFloor(0.3), "slope 10°": Slo
 VERBS = ["cmu_walk", "cmu_run"]
 EXACT = ("mode", "spent", "settle", "started")
 CLOSE = ("turn", "target", "held_rot", "offset", "offset_vel", "since", "drop", "rising", "rel_vec", "rot_since",
-         "hover", "ground", "prev_free")  # fmt: skip
+         "hover", "ground", "prev_free", "heel")  # fmt: skip
 
 
 def _motions(verb):
@@ -79,7 +79,7 @@ def test_compiled_planter_is_the_reference(motions, name, floor, source):
     verb, rot, trans, g, pts = motions[name]
     dt = 1.0 / verb.fps
     weights = verb.weights(pts)
-    # A crowd through targets() and drop_for() (plant_feet_many's path), the crowd and one creature through step().
+    # A crowd through targets() and reach() (plant_feet_many's path), the crowd and one creature through step().
     made = {
         key: [FootPlanter(verb, len(w), FLOORS[floor], w, compiled=compiled) for compiled in (True, False)]
         for key, w in (("targets", weights), ("step", weights), ("one", weights[-1:]))
@@ -95,9 +95,10 @@ def test_compiled_planter_is_the_reference(motions, name, floor, source):
         out = [p.targets(free_pos, free_rot, generic, dt, phases) for p in made["targets"]]
         for (a, b), what in zip(zip(*out), ("targets", "wanted")):
             _close(a, b, f"frame {f}: {what}")
-        rise = np.full(len(pts), 0.01 * np.sin(f))  # drop_for on its own: any rise will do
-        drops = [p.drop_for(gpos[:, upper], rise, *out[1], dt) for p in made["targets"]]
-        _close(*drops, f"frame {f}: drop")
+        rise = np.full(len(pts), 0.01 * np.sin(f))  # reach on its own: any rise will do
+        reached = [p.reach(gpos[:, upper], rise, *out[1], dt) for p in made["targets"]]
+        for (a, b), what in zip(zip(*reached), ("reached targets", "reached wanted", "drop")):
+            _close(a, b, f"frame {f}: {what}")
         for key in ("step", "one"):
             n = len(made[key][0].mode)
             sel = slice(len(pts) - n, None)

@@ -13,9 +13,9 @@ The arguments come in tuples (what ``FootPlanter`` keeps):
   everywhere: the identity on a flat floor) or a bilinear height map (:data:`GRID`: ``HeightMapFloor``, its grid
   lines ``gx``, ``gz`` and ``grid (len(gz), len(gx))``; ``params`` ``(0, 0, 0, 0, step)``; its tilt is taken
   from normals by central differences ``step`` apart, as ``Floor.normal`` takes them).
-* ``legs = (heights, opens, heel_heights, tip_offset)``, per effector ``(L,)`` (``(L, 3)``).
+* ``legs = (heights, opens, heel_heights, tip_offset, heel_axis)``, per effector ``(L,)`` (``(L, 3)``).
 * ``state = (mode, turn, target, held_rot, offset, offset_vel, since, spent, rising, rel_vec, rot_since,
-  settle, hover, ground, prev_free, drop)``: ``FootPlanter``'s state arrays, updated in place.
+  settle, hover, ground, prev_free, drop, heel)``: ``FootPlanter``'s state arrays, updated in place.
 * ``k_``: the planter's constants, :func:`constants`.
 """
 
@@ -37,17 +37,17 @@ PLANE, GRID = 0, 1
 FREE, HEEL, BALL = 0, 1, 2  # planting.FREE, HEEL, BALL
 # Where each constant sits in ``k_`` (see constants()).
 _SWING, _LN2, _OFFSET, _SETTLE, _CLEARANCE, _STILL_DOWN, _LIFTS_OFF, _TOE_LANDS, _FADE = 0, 1, 2, 5, 6, 7, 8, 9, 10
-_SWING_LIFT, _LIFT_BLEND = 11, 12
+_SWING_LIFT, _LIFT_BLEND, _HEEL_LIFT, _HEEL_STEEPEST, _INSIDE, _TRAILING = 11, 12, 13, 14, 15, 16
 
 
 def constants(swing, ln2, halflives, settle, clearance, still_down, lifts_off, toe_lands, drop_halflife, swing_lift,
-              lift_blend):  # fmt: skip
+              lift_blend, heel_lift, heel_steepest, inside, trailing):  # fmt: skip
     """``k_``: ``SWING_HALFLIFE``, ln 2, the free offset's half-lives ``(3,)``, ``SETTLE_HALFLIFE``,
-    ``SWING_CLEARANCE``, ``STILL_DOWN``, ``LIFTS_OFF``, ``TOE_LANDS``, ln 2 / ``DROP_HALFLIFE``, ``SWING_LIFT`` and
-    ``LIFT_BLEND``."""
+    ``SWING_CLEARANCE``, ``STILL_DOWN``, ``LIFTS_OFF``, ``TOE_LANDS``, ln 2 / ``DROP_HALFLIFE``, ``SWING_LIFT``,
+    ``LIFT_BLEND``, ``HEEL_LIFT``, ``HEEL_STEEPEST``, ``INSIDE`` and ``TRAILING``."""
     return np.array([
         swing, ln2, *halflives, settle, clearance, still_down, lifts_off, toe_lands, ln2 / drop_halflife, swing_lift,
-        lift_blend,
+        lift_blend, heel_lift, heel_steepest, inside, trailing,
     ])  # fmt: skip
 
 
@@ -183,10 +183,10 @@ def _released_rot(free_rot, rel_vec, rot_since, k_, out, scratch):
 
 
 @njit(cache=True)
-def _shown(c, i, base, free_rot, turn, follows, height, tip, k_, floor, state, shown, wanted, s):
+def _shown(c, i, base, free_rot, turn, follows, height, tip, axis, k_, floor, state, shown, wanted, s):
     """``FootPlanter._shown`` (with ``_offset``, ``_held_offset``, ``_shown_held``, ``_ground_shift``) of effector
     ``i`` of creature ``c`` in its mode now: where it is shown, into ``shown (3,)``, and its foot's wanted
-    orientation, into ``wanted (3, 3)``. ``s (4, 3, 3)``: scratch."""
+    orientation, into ``wanted (3, 3)``; ``axis (3,)``: its heel axis. ``s (4, 3, 3)``: scratch."""
     mode, _, target, held_rot, offset, offset_vel, since, _, rising, rel_vec, rot_since, settle = state[:12]
     rr, tl, turned = s[0], s[1], s[2]
     _released_rot(free_rot, rel_vec[c, i], rot_since[c, i], k_, rr, s[3])
@@ -209,6 +209,7 @@ def _shown(c, i, base, free_rot, turn, follows, height, tip, k_, floor, state, s
     else:
         _turn(held_rot[c, i], rr, turn, turned)
         _mm(tl, turned, wanted)
+        _heel_turn(wanted, axis, state[16][c, i], s[3], turned)
     for a in range(3):
         shown[a] = target[c, i, a]
         if settle[c, i]:
@@ -246,7 +247,7 @@ def advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, use_phase
     """
     mode, turn, _, held_rot, offset, offset_vel, since, spent, rising, rel_vec, rot_since, settle = state[:12]
     hover, ground, prev_free = state[12], state[13], state[14]
-    heights, opens, heel_heights, tip = legs
+    heights, opens, heel_heights, tip, heel_axis = legs
     n_c, n_l = free_pos.shape[0], free_pos.shape[1]
     clearance, still_down, lifts_off, toe_lands = k_[_CLEARANCE], k_[_STILL_DOWN], k_[_LIFTS_OFF], k_[_TOE_LANDS]
     inside = np.empty(n_l, dtype=np.bool_)
@@ -301,7 +302,7 @@ def advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, use_phase
             _mm(s[0], fr, free_wanted)
             rot_since[c, i] += d
             rising[c, i] = 0.0 if follows else max(raised, 0.0) * tn
-            _shown(c, i, base, fr, turn[c, i], follows, height, tip[i], k_, floor, state, shown, wanted, s)
+            _shown(c, i, base, fr, turn[c, i], follows, height, tip[i], heel_axis[i], k_, floor, state, shown, wanted, s)
             if closing:  # let go: what the foot's orientation had still to turn decays from here
                 _mmt(wanted, free_wanted, rel)
                 _mat_to_quat(rel, q)
@@ -329,7 +330,7 @@ def advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, use_phase
                     shown[a] -= arm[a]
                 _land(c, i, shown, heel_heights[i], floor, state)
                 mode[c, i] = HEEL
-                _shown(c, i, base, fr, tn, follows, height, tip[i], k_, floor, state, shown, wanted, s)
+                _shown(c, i, base, fr, tn, follows, height, tip[i], heel_axis[i], k_, floor, state, shown, wanted, s)
                 low = shown[1] - _height(floor, shown[0], shown[2]) - height <= toe_lands
             # The ball is down once the rolling foot brings it to the floor (or, at the latest, at heel-off).
             if (opening and not rocking) or (mode[c, i] == HEEL and (low or tn > 0.0)):
@@ -342,10 +343,10 @@ def advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, use_phase
                 ground[c, i] = min(ground[c, i], lift)
             turn[c, i] = tn
             prev_free[c, i] = fp
-            _shown(c, i, base, fr, tn, follows, height, tip[i], k_, floor, state, shown_out[c, i], wanted_out[c, i], s)
+            _shown(c, i, base, fr, tn, follows, height, tip[i], heel_axis[i], k_, floor, state, shown_out[c, i], wanted_out[c, i], s)
 
 
-# ----- the rest of a frame: _rise, drop_for, _ride_floor, _tilts, then IK ----------------------------------
+# ----- the rest of a frame: _rise, reach, _ride_floor, _tilts, then IK ----------------------------------
 
 
 @njit(cache=True)
@@ -359,28 +360,111 @@ def rise(roots, targets, verb_floor, floor, out):
 
 
 @njit(cache=True)
-def drop_for(hips, rises, targets, wanted, dt, tip, reach, max_drop, k_, drop):
-    """``FootPlanter.drop_for_reference``: each creature's root drop this frame, updated in ``drop (C,)``;
-    ``max_drop``: ``ik.MAX_DROP`` times the shortest ``reach``."""
-    arm = np.empty(3)
+def _heel_turn(wanted, axis, angle, rot, out):
+    """``planting._heel_turn`` of one foot: ``wanted (3, 3)`` turned heel-up by ``angle`` about ``axis (3,)`` in the
+    foot's frame, in place; ``rot``, ``out (3, 3)``: scratch."""
+    if angle == 0.0:
+        return
+    wx = wanted[0, 0] * axis[0] + wanted[0, 1] * axis[1] + wanted[0, 2] * axis[2]
+    wy = wanted[1, 0] * axis[0] + wanted[1, 1] * axis[1] + wanted[1, 2] * axis[2]
+    wz = wanted[2, 0] * axis[0] + wanted[2, 1] * axis[1] + wanted[2, 2] * axis[2]
+    _rotvec_matrix(wx * angle, wy * angle, wz * angle, rot)
+    _mm(rot, wanted, out)
+    wanted[:] = out
+
+
+@njit(cache=True)
+def _heel_needed(bx, by, bz, ax, ay, az, ux, uy, uz, r):
+    """``planting._heel_needed`` of one foot: the ball ``b`` from the hip, the ankle ``a`` from the ball, the heel
+    axis ``u`` (world), the leg's reach ``r``."""
+    k = ax * ux + ay * uy + az * uz
+    lx, ly, lz = k * ux, k * uy, k * uz  # along the axis
+    a = bx * (ax - lx) + by * (ay - ly) + bz * (az - lz)
+    b = bx * (uy * az - uz * ay) + by * (uz * ax - ux * az) + bz * (ux * ay - uy * ax)
+    c = bx * lx + by * ly + bz * lz
+    room = 0.5 * (r * r - (bx * bx + by * by + bz * bz) - (ax * ax + ay * ay + az * az)) - c
+    if not (a > room and b < 0.0):
+        return 0.0
+    rr = math.hypot(a, b)
+    start = math.atan2(-b, a)
+    cross = math.acos(min(max(room / (rr if rr > 0.0 else 1.0), -1.0), 1.0))
+    return max(cross - start, 0.0)
+
+
+@njit(cache=True)
+def reach(hips, rises, targets, wanted, dt, tip, axis, reach_, max_drop, k_, state):
+    """``FootPlanter.reach_reference``: heels lifted, each creature's root drop (``state[15]``) and free feet
+    brought within reach, ``targets (C, L, 3)`` and ``wanted (C, L, 3, 3)`` in place; ``max_drop``: ``ik.MAX_DROP``
+    times the shortest ``reach_``."""
+    mode, turn, spent, drop, heel = state[0], state[1], state[7], state[15], state[16]
+    n_l = hips.shape[1]
+    arm, hip = np.empty(3), np.empty(3)
+    rot, tmp = np.empty((3, 3)), np.empty((3, 3))
+    loose = np.empty(n_l, dtype=np.bool_)
     for c in range(len(drop)):
-        need = -np.inf
-        for i in range(hips.shape[1]):
+        fade = math.exp(-k_[_FADE] * dt[c])
+        need_drop = -np.inf
+        for i in range(n_l):
+            w = wanted[c, i]
+            held = mode[c, i] == BALL
+            if held:
+                _heel_turn(w, axis[i], -heel[c, i], rot, tmp)
+            _mv(w, tip[i], arm)  # ankle → effector
+            ux = w[0, 0] * axis[i, 0] + w[0, 1] * axis[i, 1] + w[0, 2] * axis[i, 2]
+            uy = w[1, 0] * axis[i, 0] + w[1, 1] * axis[i, 1] + w[1, 2] * axis[i, 2]
+            uz = w[2, 0] * axis[i, 0] + w[2, 1] * axis[i, 1] + w[2, 2] * axis[i, 2]
+            for a in range(3):
+                hip[a] = hips[c, i, a]
+            hip[1] += rises[c]
+            need = _heel_needed(targets[c, i, 0] - hip[0], targets[c, i, 1] - hip[1], targets[c, i, 2] - hip[2],
+                                -arm[0], -arm[1], -arm[2], ux, uy, uz, reach_[i])  # fmt: skip
+            flat = math.hypot(arm[0], arm[2])
+            most = min(max(k_[_HEEL_STEEPEST] - math.atan2(-arm[1], flat), 0.0), k_[_HEEL_LIFT])
+            # Only a foot the hips have passed.
+            behind = ((hip[0] - targets[c, i, 0]) * arm[0] + (hip[2] - targets[c, i, 2]) * arm[2]) / max(flat, 1e-9)
+            most = most * _smoothstep(behind / k_[_TRAILING])
+            going = held and turn[c, i] > 0.0 and max(need, 2.0 * need - heel[c, i]) > most
+            heel[c, i] = min(max(need, heel[c, i] * fade), most) if held else 0.0
+            if going:
+                spent[c, i] = True
+            _heel_turn(w, axis[i], heel[c, i], rot, tmp)
+            loose[i] = mode[c, i] == FREE or going
+            if not loose[i]:
+                _mv(w, tip[i], arm)
+                dx = targets[c, i, 0] - arm[0] - hip[0]
+                dy = targets[c, i, 1] - arm[1] - hip[1]
+                dz = targets[c, i, 2] - arm[2] - hip[2]
+                across = math.hypot(dx, dz)
+                need_drop = max(need_drop, -dy - math.sqrt(max(reach_[i] ** 2 - across**2, 0.0)) if across < reach_[i] else 0.0)
+        need_drop = min(max(need_drop, 0.0), max_drop)
+        drop[c] = max(need_drop, drop[c] * fade)
+        for i in range(n_l):
+            if not loose[i]:
+                continue
             _mv(wanted[c, i], tip[i], arm)
+            hy = hips[c, i, 1] + rises[c] - drop[c]
             dx = targets[c, i, 0] - arm[0] - hips[c, i, 0]
-            dy = targets[c, i, 1] - arm[1] - hips[c, i, 1] - rises[c]
+            dy = targets[c, i, 1] - arm[1] - hy
             dz = targets[c, i, 2] - arm[2] - hips[c, i, 2]
-            across = math.hypot(dx, dz)
-            need = max(need, -dy - math.sqrt(max(reach[i] ** 2 - across**2, 0.0)) if across < reach[i] else 0.0)
-        need = min(max(need, 0.0), max_drop)
-        drop[c] = max(need, drop[c] * math.exp(-k_[_FADE] * dt[c]))
+            far = math.sqrt(dx * dx + dy * dy + dz * dz)
+            inside = reach_[i] * k_[_INSIDE]
+            if far > inside:
+                across = math.hypot(dx, dz)
+                if across < inside and dy < 0.0:  # raised to the reach: it lifts off rather than slides
+                    dy = -math.sqrt(max(inside * inside - across * across, 0.0))
+                else:  # along the line to the hip
+                    scale = inside / far
+                    dx, dy, dz = dx * scale, dy * scale, dz * scale
+                targets[c, i, 0] = hips[c, i, 0] + dx + arm[0]
+                targets[c, i, 1] = hy + dy + arm[1]
+                targets[c, i, 2] = hips[c, i, 2] + dz + arm[2]
 
 
 @njit(cache=True)
 def step(parents, rotations, translations, generic, inside_in, turn_in, swing_in, use_phases, dt, start, times,
          cyclic, verb_floor, tips, root, legs, k_, floor, state, chain, ik_params, out):  # fmt: skip
     """``FootPlanter.step_reference`` of ``C`` creatures' poses ``rotations (C, J, 4)``, ``translations (C, J, 3)``,
-    planted in place: FK, :func:`advance`, :func:`rise`, :func:`drop_for`, the pelvis raised
+    planted in place: FK, :func:`advance`, :func:`rise`, :func:`reach`, the pelvis raised
     (``planting._ride_floor``), the feet's tilts (``FootPlanter._tilts``), then the IK
     (``_ik_kernel.solve_batch``).
 
@@ -389,7 +473,7 @@ def step(parents, rotations, translations, generic, inside_in, turn_in, swing_in
     root_drop, residual)``: FK, the planter's targets and orientations, the IK's root drop and misses.
     Returns whether every target is finite (if not, the IK is not run).
     """
-    above, upper, middle, end, hinge, upper_offset, end_offset, reach = chain
+    above, upper, middle, end, hinge, upper_offset, end_offset, reach_ = chain
     min_flex, iterations, lam2, max_step, max_drop = ik_params
     gpos, grot, targets, wanted, root_drop, residual = out
     tip, drop = legs[3], state[15]
@@ -405,7 +489,7 @@ def step(parents, rotations, translations, generic, inside_in, turn_in, swing_in
     advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, use_phases, dt, start, times, cyclic,
             verb_floor, legs, k_, floor, state, targets, wanted)  # fmt: skip
     rise(gpos[:, root], targets, verb_floor, floor, rises)
-    drop_for(hips, rises, targets, wanted, dt, tip, reach, max_drop, k_, drop)
+    reach(hips, rises, targets, wanted, dt, tip, legs[4], reach_, max_drop, k_, state)
     pelvis = above[len(above) - 1]
     parent = parents[pelvis]
     tilts = np.empty((n_c, n_l, 3, 3))
@@ -425,5 +509,5 @@ def step(parents, rotations, translations, generic, inside_in, turn_in, swing_in
         if not math.isfinite(x):
             return False  # ik.solve refuses these
     solve_batch(rotations, translations, targets, tilts, above, upper, middle, end, hinge, upper_offset,
-                end_offset, tip, reach, min_flex, iterations, lam2, max_step, max_drop, root_drop, residual)  # fmt: skip
+                end_offset, tip, reach_, min_flex, iterations, lam2, max_step, max_drop, root_drop, residual)  # fmt: skip
     return True

@@ -154,9 +154,9 @@ def plant_feet_many(
     rises, drops = np.empty((longest, c)), np.empty((longest, c))
     for f in range(longest):
         tg[f], wanted[f] = planter.targets(free_pos[f], free_rot[f], g[f], dt)
-        modes[f], turns[f] = planter.mode, planter.turn
         rises[f] = _rise(verb, floor, roots[f], tg[f])
-        drops[f] = planter.drop_for(hips[f], rises[f], tg[f], wanted[f], dt)
+        tg[f], wanted[f], drops[f] = planter.reach(hips[f], rises[f], tg[f], wanted[f], dt)
+        modes[f], turns[f] = planter.shown_mode, planter.rolled
     rots, trans, targets, tilts, starts, min_drops = [], [], [], [], [0], []
     for i, ((clip, _, _), (_, grot)) in enumerate(zip(motions, fk)):
         n = clip.num_frames

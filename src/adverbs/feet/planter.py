@@ -60,6 +60,10 @@ LIFT_HALFLIFE = 0.015  # seconds: the vertical part of a released foot's offset 
 SWING_HALFLIFE = 0.1  # seconds: the horizontal part, slower, so the foot lifts before it travels
 DROP_HALFLIFE = 0.1  # seconds: a lowered root comes back up no faster than this decay
 SETTLE_HALFLIFE = 0.03  # seconds: a landing foot's height settles onto the floor this fast
+HEEL_LIFT = 0.8  # radians (46°): the most a held foot's heel is lifted about its ball for a leg to reach it
+HEEL_STEEPEST = 1.4  # radians (80°): ... and never so far that its ankle stands higher than this over the ball
+TRAILING = 0.1  # metres: a held ball this far behind its hip (along the foot) may have its heel lifted in full
+INSIDE = 1.0 - 1e-9  # a free foot out of reach is brought this far inside it (the IK then does not lower the root)
 _LN2 = float(np.log(2.0))
 
 
@@ -91,7 +95,7 @@ class FootPlanter:
     (for its velocity); per creature, the root drop. ``weights (C, E)`` set the hold times (the
     examples' own, blended at each creature's adverb point); without them, their mean.
 
-    :meth:`targets`, :meth:`drop_for` and :meth:`step` run a compiled loop (:mod:`._planting_kernel`) on a
+    :meth:`targets`, :meth:`reach` and :meth:`step` run a compiled loop (:mod:`._planting_kernel`) on a
     flat floor, a slope or a height map; their ``*_reference`` methods are the readable NumPy versions, which
     any other floor (a :class:`~adverbs.kinematics.floor.FunctionFloor`) and ``compiled=False`` use. The two
     agree to rounding (``tests/test_planting_kernel.py``).
@@ -132,6 +136,7 @@ class FootPlanter:
         self.since = np.zeros((c, n, 3))
         self.spent = np.zeros((c, n), dtype=bool)  # this hold's foot was let go early: the verb lifted it
         self.drop = np.zeros(c)  # how far the root is lowered (decaying once no leg needs it)
+        self.heel = np.zeros((c, n))  # how far a held foot's heel is lifted about its ball beyond the verb's (radians)
         self.rising = np.zeros((c, n))  # how far a rolling ball is raised with the verb's
         self.rel_vec = np.zeros((c, n, 3))  # a released foot's orientation relative to the verb's (rotation vector)
         self.rot_since = np.full((c, n), 1e9)  # seconds since then (long ago: nothing left)
@@ -141,6 +146,20 @@ class FootPlanter:
         self.prev_free = np.zeros((c, n, 3))
         kernel_floor = _compiled_floor(self.floor) if compiled else None
         self._compiled = None if kernel_floor is None else _Compiled(self, kernel_floor)
+
+    @property
+    def shown_mode(self) -> np.ndarray:
+        """What each foot is doing as shown ``(C, L)``, what reports record: ``mode``, but a foot let go this frame
+        (:meth:`reach_reference` found it out of reach on its toes; the next frame releases it) as :data:`FREE`:
+        its target is no longer where it was held."""
+        return np.where(self.spent & (self.mode != FREE), FREE, self.mode)
+
+    @property
+    def rolled(self) -> np.ndarray:
+        """How far each foot is off flat ``(C, L)``, what reports record: the turn back to the verb's orientation
+        (``turn``), or, where the planter lifted a heel for its leg to reach (:meth:`reach_reference`), that lift's
+        share of ``HEEL_LIFT`` if more: a foot on its toes is not flat."""
+        return np.maximum(self.turn, self.heel / HEEL_LIFT)
 
     # ----- the state machine ------------------------------------------------------------------
     def set_weights(self, weights: np.ndarray) -> None:
@@ -305,6 +324,7 @@ class FootPlanter:
             free_wanted,
             held_tilt @ np.where((self.mode == HEEL)[..., None, None], free_rot, _turn(self.held_rot, free_rot, turn)),
         )
+        wanted = _heel_turn(wanted, self.chains.heel_axis, np.where(self.mode == BALL, self.heel, 0.0))
         rocker = held_at + np.einsum("...ij,...j->...i", wanted, self.chains.tip_offset)
         shown = np.where((self.mode == BALL)[..., None], held_at, np.where((self.mode == HEEL)[..., None], rocker, shown))
         return shown, wanted
@@ -365,36 +385,82 @@ class FootPlanter:
         free_pos, free_rot = gpos[:, self.tips], quat.to_matrix(grot[:, self.chains.end])
         targets, wanted = self.targets_reference(free_pos, free_rot, generic, dt, phases)
         rise = _rise(self.verb, self.floor, gpos[:, self.verb.encoding.body_root], targets)
-        drop = self.drop_for_reference(gpos[:, self.chains.upper], rise, targets, wanted, dt)
+        targets, wanted, drop = self.reach_reference(gpos[:, self.chains.upper], rise, targets, wanted, dt)
         risen = _ride_floor(self.verb, self.chains, translations, grot, rise)
         result = ik.solve(self.chains, rotations, risen, targets, self._tilts(wanted, free_rot), min_drop=drop)
         return result.rotations, result.translations, result
 
-    def drop_for(
+    def reach(
         self, hips: np.ndarray, rise: np.ndarray, targets: np.ndarray, wanted: np.ndarray, dt: float | np.ndarray
-    ) -> np.ndarray:
-        """:meth:`drop_for_reference`, compiled where the floor allows."""
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`reach_reference`, compiled where the floor allows."""
         if self._compiled is None:
-            return self.drop_for_reference(hips, rise, targets, wanted, dt)
-        return self._compiled.drop_for(hips, rise, targets, wanted, dt)
+            return self.reach_reference(hips, rise, targets, wanted, dt)
+        return self._compiled.reach(hips, rise, targets, wanted, dt)
 
-    def drop_for_reference(
+    def reach_reference(
         self, hips: np.ndarray, rise: np.ndarray, targets: np.ndarray, wanted: np.ndarray, dt: float | np.ndarray
-    ) -> np.ndarray:
-        """How far to lower each creature's root this frame, ``(C,)``: what its legs need to reach their targets
-        from the hips ``(C, L, 3)`` (the verb's, before the pelvis rides up by ``rise (C,)``), as
-        :func:`~adverbs.kinematics.ik.solve` reckons it, but let go no faster than a ``DROP_HALFLIFE``
-        decay, so the body does not spring up when a stretched leg lets its foot go."""
-        goals = targets - np.einsum("...ij,...j->...i", wanted, self.chains.tip_offset)
-        d = goals - hips
-        d[..., 1] -= rise[:, None]
-        reach = self.chains.reach
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """What the legs can reach from the hips ``(C, L, 3)`` (the verb's, before the pelvis rides up by ``rise
+        (C,)``): the effectors' targets ``(C, L, 3)``, the feet's wanted orientations ``(C, L, 3, 3)`` and each
+        creature's root drop ``(C,)``, as :func:`~adverbs.kinematics.ik.solve` reckons reach.
+
+        1. **Heels.** Where the verb's body travels further over a held foot than the foot it shows (between
+           examples, in a blend, over a loop's seam), the trailing leg cannot reach its ankle. A person rises
+           onto the ball of the foot: a foot held on its ball is turned heel-up about the ball (which does not
+           move) about ``LegChains.heel_axis`` as far as its leg needs, at most ``HEEL_LIFT`` and never with
+           the ankle more than ``HEEL_STEEPEST`` over the ball; only a foot its hip has passed (in full from
+           ``TRAILING`` behind it): a foot under the body that its leg cannot reach (a stand too tall for its
+           legs) lowers the hips. A lifted heel comes down no faster than a
+           ``DROP_HALFLIFE`` decay. ``heel`` keeps the lift, so a foot let go leaves from the orientation it
+           was shown in (:meth:`_shown` turns held feet by it). A foot rolling off that cannot be reached on
+           its toes, or will not be by the next frame at the rate its lift grows, is let go (toe-off comes when
+           the leg is straight): it is marked ``spent``, and the next frame releases it.
+        2. **The root drop.** What a held foot still cannot reach lowers the root, let go no faster than a
+           ``DROP_HALFLIFE`` decay, so the body does not spring up when a stretched leg lets its foot go.
+        3. **Free feet.** A swinging foot (or one being let go) out of reach of the hips so lowered does not
+           lower them: its target is raised until the leg reaches it (it lifts off the ground rather than
+           sliding along it), or, where raising cannot do it, brought in along the line to its hip (a foot just
+           let go, leaving from rest, trails the hips).
+        """
+        tip, reach, axis = self.chains.tip_offset, self.chains.reach, self.chains.heel_axis
+        held = self.mode == BALL
+        wanted = _heel_turn(wanted, axis, -np.where(held, self.heel, 0.0))
+        arm = -np.einsum("...ij,...j->...i", wanted, tip)  # ball → ankle
+        hips = hips + rise[:, None, None] * np.array([0.0, 1.0, 0.0])
+        need = _heel_needed(targets - hips, arm, np.einsum("...ij,...j->...i", wanted, axis), reach)
+        fade = np.exp(-_LN2 * np.broadcast_to(np.asarray(dt, dtype=float), self.drop.shape) / DROP_HALFLIFE)
+        most = np.clip(HEEL_STEEPEST - np.arctan2(arm[..., 1], np.hypot(arm[..., 0], arm[..., 2])), 0.0, HEEL_LIFT)
+        # Only a foot the hips have passed: one under the body (a stand too tall to reach its feet) lowers the hips.
+        forward = -arm[..., [0, 2]] / np.maximum(np.hypot(arm[..., 0], arm[..., 2]), 1e-9)[..., None]
+        behind = np.sum((hips - targets)[..., [0, 2]] * forward, axis=-1)
+        most = most * _smoothstep(behind / TRAILING)
+        # A foot rolling off that its leg cannot reach on its toes, now or (at the rate the lift it needs grows)
+        # by the next frame, is let go: the next frame releases it.
+        going = held & (self.turn > 0.0) & (np.maximum(need, 2.0 * need - self.heel) > most)
+        self.heel = np.where(held, np.minimum(np.maximum(need, self.heel * fade[:, None]), most), 0.0)
+        self.spent |= going
+        wanted = _heel_turn(wanted, axis, self.heel)
+        arm = np.einsum("...ij,...j->...i", wanted, tip)  # ankle → effector
+        d = targets - arm - hips
         across = np.hypot(d[..., 0], d[..., 2])
         need = np.where(across < reach, -d[..., 1] - np.sqrt(np.maximum(reach**2 - across**2, 0.0)), 0.0)
-        need = np.minimum(np.maximum(need.max(axis=-1), 0.0), ik.MAX_DROP * float(reach.min()))
-        fade = np.exp(-_LN2 * np.broadcast_to(np.asarray(dt, dtype=float), need.shape) / DROP_HALFLIFE)
+        loose = (self.mode == FREE) | going
+        need = np.where(loose, 0.0, need).max(axis=-1)
+        need = np.minimum(np.maximum(need, 0.0), ik.MAX_DROP * float(reach.min()))
         self.drop = np.maximum(need, self.drop * fade)
-        return self.drop
+        d[..., 1] += self.drop[:, None]
+        far = np.linalg.norm(d, axis=-1)
+        inside = reach * INSIDE
+        pull = loose & (far > inside)
+        # Raised to the reach where it can be (a foot lifts off the ground rather than sliding), else along the line.
+        across = np.hypot(d[..., 0], d[..., 2])
+        up = pull & (across < inside) & (d[..., 1] < 0.0)
+        scale = np.where(pull & ~up, inside / np.where(pull, far, 1.0), 1.0)
+        d = d * scale[..., None]
+        d[..., 1] = np.where(up, -np.sqrt(np.maximum(inside**2 - across**2, 0.0)), d[..., 1])
+        dropped = hips - [0.0, 1.0, 0.0] * self.drop[:, None, None]
+        return np.where(pull[..., None], dropped + d + arm, targets), wanted, self.drop.copy()
 
     @staticmethod
     def _tilts(wanted: np.ndarray, free_rot: np.ndarray) -> np.ndarray:
@@ -414,10 +480,10 @@ class _Compiled:
         self.floor = floor  # _compiled_floor(planter.floor)
         self.constants = k.constants(
             SWING_HALFLIFE, _LN2, _HALFLIVES, SETTLE_HALFLIFE, SWING_CLEARANCE, STILL_DOWN, LIFTS_OFF, TOE_LANDS,
-            DROP_HALFLIFE, SWING_LIFT, LIFT_BLEND,
+            DROP_HALFLIFE, SWING_LIFT, LIFT_BLEND, HEEL_LIFT, HEEL_STEEPEST, INSIDE, TRAILING,
         )  # fmt: skip
         tip = np.ascontiguousarray(chains.tip_offset, dtype=float)
-        self.legs = (planter.heights, planter.opens, planter.heel_heights, tip)
+        self.legs = (planter.heights, planter.opens, planter.heel_heights, tip, np.ascontiguousarray(chains.heel_axis))
         reach = np.ascontiguousarray(chains.reach)
         self.max_drop = ik.MAX_DROP * float(reach.min())
         joints = (np.asarray(a, dtype=np.int64) for a in (chains.above, chains.upper, chains.middle, chains.end))
@@ -437,7 +503,7 @@ class _Compiled:
         p = self.planter
         return (
             p.mode, p.turn, p.target, p.held_rot, p.offset, p.offset_vel, p.since, p.spent, p.rising, p.rel_vec,
-            p.rot_since, p.settle, p.hover, p.ground, p.prev_free, p.drop,
+            p.rot_since, p.settle, p.hover, p.ground, p.prev_free, p.drop, p.heel,
         )  # fmt: skip
 
     def _frame(self, generic, dt, phases) -> tuple:
@@ -472,14 +538,15 @@ class _Compiled:
         p.started = True
         return shown, wanted
 
-    def drop_for(self, hips, rise, targets, wanted, dt) -> np.ndarray:
-        """:meth:`FootPlanter.drop_for_reference` by ``_planting_kernel.drop_for``."""
+    def reach(self, hips, rise, targets, wanted, dt) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`FootPlanter.reach_reference` by ``_planting_kernel.reach``."""
         self.dt[:] = dt
         p = self.planter
-        hips, rise, targets, wanted = (np.ascontiguousarray(a, dtype=float) for a in (hips, rise, targets, wanted))
-        self.kernel.drop_for(hips, rise, targets, wanted, self.dt, self.legs[3], self.chain[-1], self.max_drop,
-                             self.constants, p.drop)  # fmt: skip
-        return p.drop.copy()
+        hips, rise = (np.ascontiguousarray(a, dtype=float) for a in (hips, rise))
+        targets, wanted = (np.array(a, dtype=float, order="C") for a in (targets, wanted))  # changed in place
+        self.kernel.reach(hips, rise, targets, wanted, self.dt, self.legs[3], self.legs[4], self.chain[-1],
+                          self.max_drop, self.constants, self._state())  # fmt: skip
+        return targets, wanted, p.drop.copy()
 
     def step(self, rotations, translations, generic, dt, phases) -> tuple[np.ndarray, np.ndarray, ik.IKResult]:
         """:meth:`FootPlanter.step_reference` by ``_planting_kernel.step``: FK, the state machine and IK in one call."""
@@ -589,6 +656,36 @@ def _turn(held: np.ndarray, free: np.ndarray, w: np.ndarray) -> np.ndarray:
         a, b = np.broadcast_to(held, out.shape)[part], np.broadcast_to(free, out.shape)[part]
         out[part] = quat.to_matrix(quat.slerp(quat.from_matrix(a), quat.from_matrix(b), w[part]))
     return out
+
+
+def _heel_turn(wanted: np.ndarray, axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """Foot orientations ``wanted (..., L, 3, 3)`` turned heel-up by ``angle (..., L)`` about ``axis (L, 3)`` in the
+    foot's frame (``LegChains.heel_axis``; turning about it leaves it where it is, so the lifted foot gives the
+    axis back)."""
+    if not np.any(angle):
+        return wanted
+    world = np.einsum("...ij,...j->...i", wanted, axis)
+    return quat.rotvec_matrix(world * angle[..., None]) @ wanted
+
+
+def _heel_needed(to_ball: np.ndarray, arm: np.ndarray, axis: np.ndarray, reach: np.ndarray) -> np.ndarray:
+    """The least heel lift ``(..., L)`` in ``[0, π]`` that brings the ankle within ``reach (L,)`` of the hip, for a
+    ball ``to_ball (..., L, 3)`` from the hip and ankle ``arm`` from the ball, turning about ``axis``; where no
+    lift brings it within reach, the lift that brings it closest; 0 where it is within reach or lifting
+    does not bring it closer.
+
+    The hip-to-ankle distance is ``|to_ball + arm(θ)|`` with ``arm(θ) = a∥ + a⊥ cos θ + (axis × arm) sin θ``, so
+    its square is ``K + 2 (A cos θ + B sin θ)``: the first ``θ`` where that falls to ``reach²`` is closed-form.
+    """
+    along = np.sum(arm * axis, axis=-1, keepdims=True) * axis
+    a = np.sum(to_ball * (arm - along), axis=-1)
+    b = np.sum(to_ball * np.cross(axis, arm), axis=-1)
+    c = np.sum(to_ball * along, axis=-1)
+    room = 0.5 * (reach**2 - np.sum(to_ball**2, axis=-1) - np.sum(arm**2, axis=-1)) - c  # A cos θ + B sin θ ≤ room
+    r = np.hypot(a, b)
+    start = np.arctan2(-b, a)  # θ = 0 is at this angle past the sinusoid's peak (in (0, π) when lifting helps)
+    cross = np.arccos(np.clip(room / np.where(r > 0.0, r, 1.0), -1.0, 1.0))
+    return np.where((a > room) & (b < 0.0), np.maximum(cross - start, 0.0), 0.0)
 
 
 def _rise(verb: Verb, floor: Floor, root: np.ndarray, feet: np.ndarray) -> np.ndarray:

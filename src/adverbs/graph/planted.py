@@ -37,11 +37,13 @@ class GraphFeet:
 
     @property
     def mode(self) -> np.ndarray:
-        return self.planter.mode
+        """What each foot is doing as shown (``FootPlanter.shown_mode``), as reports record it."""
+        return self.planter.shown_mode
 
     @property
     def turn(self) -> np.ndarray:
-        return self.planter.turn
+        """How far each foot is off flat (``FootPlanter.rolled``), as reports record it."""
+        return self.planter.rolled
 
     @property
     def tips(self) -> np.ndarray:

@@ -55,6 +55,9 @@ class LegChains:
         The knee's bending axis in the hip's frame (flexion is positive about it).
     upper_offset, end_offset : (L, 3)
         The knee's offset in the hip's frame and the ankle's in the knee's frame (metres).
+    heel_axis : (L, 3)
+        Across the foot in the end's frame (zeros where the effector is the end): turning the end about it by
+        a positive angle, through the tip, lifts the heel (the ankle rises about the toe's joint).
     """
 
     upper: np.ndarray
@@ -65,6 +68,7 @@ class LegChains:
     upper_offset: np.ndarray
     end_offset: np.ndarray
     tip_offset: np.ndarray
+    heel_axis: np.ndarray
     min_flex: float = np.deg2rad(2.0)
 
     @property
@@ -106,8 +110,30 @@ class LegChains:
                 raise AdverbsError(f"cannot find the knee axis of {skeleton.names[m]!r}: the leg never bends")
             hinge[i] = total / np.linalg.norm(total)
         return cls(
-            np.array(upper), np.array(middle), np.array(ends), above, hinge, upper_offset, end_offset, tip_offset
-        )
+            np.array(upper), np.array(middle), np.array(ends), above, hinge, upper_offset, end_offset, tip_offset,
+            _heel_axes(skeleton, ends, tip_offset, sample_rotations),
+        )  # fmt: skip
+
+
+def _heel_axes(skeleton: Skeleton, ends: Sequence[int], tip_offset: np.ndarray, sample_rotations: np.ndarray) -> np.ndarray:
+    """Each foot's heel-lift axis in its end's frame ``(L, 3)``: across the foot, perpendicular to the toe's offset
+    and to the world's up as the end's frame sees it on average over ``sample_rotations (F, J, 4)`` (a foot is
+    near flat for most of real motion), signed so a positive turn raises the ankle; zeros without a toe."""
+    axes = np.zeros((len(ends), 3))
+    for i, (e, t) in enumerate(zip(ends, tip_offset)):
+        if np.linalg.norm(t) < 1e-9:
+            continue
+        g = sample_rotations[:, skeleton.ancestors(e)[-1]]
+        for j in skeleton.ancestors(e)[-2::-1]:  # root to end: the end's global orientation
+            g = quat.mul(g, sample_rotations[:, j])
+        up = quat.rotate(quat.inv(g), np.array([0.0, 1.0, 0.0])).mean(axis=0)
+        axis = np.cross(t, up)
+        n = np.linalg.norm(axis)
+        if n < 1e-9:
+            continue
+        axis /= n
+        axes[i] = axis if np.dot(np.cross(axis, -t), up) > 0.0 else -axis  # the ankle (−t from the toe) rises
+    return axes
 
 
 def _checked(rotations, translations, targets, damping) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

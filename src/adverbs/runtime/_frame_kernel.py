@@ -522,7 +522,7 @@ def _plant(lo, hi, outputs, planted, feet, start, any_replanting, k_):  # pragma
     s = slice(lo, hi)
     sliced = (
         st[0][s], st[1][s], st[2][s], st[3][s], st[4][s], st[5][s], st[6][s], st[7][s], st[8][s], st[9][s], st[10][s],
-        st[11][s], st[12][s], st[13][s], st[14][s], st[15][s],
+        st[11][s], st[12][s], st[13][s], st[14][s], st[15][s], st[16][s],
     )  # fmt: skip
     out = (scratch[0][s], scratch[1][s], scratch[2][s], scratch[3][s], drop[s], residual[s])
     finite = plant_step(
