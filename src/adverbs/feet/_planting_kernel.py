@@ -423,7 +423,7 @@ def reach(hips, rises, targets, wanted, dt, tip, axis, reach_, max_drop, k_, sta
             # Only a foot the hips have passed.
             behind = ((hip[0] - targets[c, i, 0]) * arm[0] + (hip[2] - targets[c, i, 2]) * arm[2]) / max(flat, 1e-9)
             most = most * _smoothstep(behind / k_[_TRAILING])
-            going = held and turn[c, i] > 0.0 and max(need, 2.0 * need - heel[c, i]) > most
+            going = held and turn[c, i] > 0.0 and behind >= k_[_TRAILING] and max(need, 2.0 * need - heel[c, i]) > most
             heel[c, i] = min(max(need, heel[c, i] * fade), most) if held else 0.0
             if going:
                 spent[c, i] = True

@@ -413,8 +413,9 @@ class FootPlanter:
            ``TRAILING`` behind it): a foot under the body that its leg cannot reach (a stand too tall for its
            legs) lowers the hips. A lifted heel comes down no faster than a
            ``DROP_HALFLIFE`` decay. ``heel`` keeps the lift, so a foot let go leaves from the orientation it
-           was shown in (:meth:`_shown` turns held feet by it). A foot rolling off that cannot be reached on
-           its toes, or will not be by the next frame at the rate its lift grows, is let go (toe-off comes when
+           was shown in (:meth:`_shown` turns held feet by it). A foot rolling off ``TRAILING`` behind its hip
+           that cannot be reached on its toes, or will not be by the next frame at the rate its lift grows, is
+           let go (toe-off comes when
            the leg is straight): it is marked ``spent``, and the next frame releases it.
         2. **The root drop.** What a held foot still cannot reach lowers the root, let go no faster than a
            ``DROP_HALFLIFE`` decay, so the body does not spring up when a stretched leg lets its foot go.
@@ -435,9 +436,9 @@ class FootPlanter:
         forward = -arm[..., [0, 2]] / np.maximum(np.hypot(arm[..., 0], arm[..., 2]), 1e-9)[..., None]
         behind = np.sum((hips - targets)[..., [0, 2]] * forward, axis=-1)
         most = most * _smoothstep(behind / TRAILING)
-        # A foot rolling off that its leg cannot reach on its toes, now or (at the rate the lift it needs grows)
-        # by the next frame, is let go: the next frame releases it.
-        going = held & (self.turn > 0.0) & (np.maximum(need, 2.0 * need - self.heel) > most)
+        # A foot rolling off behind the hips that its leg cannot reach on its toes, now or (at the rate the lift it
+        # needs grows) by the next frame, is let go: the next frame releases it.
+        going = held & (self.turn > 0.0) & (behind >= TRAILING) & (np.maximum(need, 2.0 * need - self.heel) > most)
         self.heel = np.where(held, np.minimum(np.maximum(need, self.heel * fade[:, None]), most), 0.0)
         self.spent |= going
         wanted = _heel_turn(wanted, axis, self.heel)
