@@ -32,6 +32,7 @@ from ..kinematics import quat
 from ..kinematics.fk import forward_kinematics
 from ..motion.encoding import DofEncoding
 from ..motion.heading import heading
+from . import _goal_kernel
 from ._sampling_kernel import ONE_SHOT, sample_batch
 
 MU = 0.01  # metres per unit of DOF: how much the solve prefers a small offset to the last centimetres of reach
@@ -59,6 +60,7 @@ class Goal:
     columns: np.ndarray
     window: np.ndarray
     joints: np.ndarray  # (len(chain),) the chain's joint indices; its columns are three per joint, in this order
+    path: tuple = ()  # the compiled solve's tables of the goal joint's ancestors (see :func:`_path`)
 
     @classmethod
     def build(
@@ -125,8 +127,34 @@ class Goal:
         after = generic[k + 1] if k + 1 < n else generic[k]
         window = np.array([generic[k - 1], generic[k], after])
         return cls(
-            chain, joint, k, tuple(goal_adverbs), tuple(axes), np.array(columns, dtype=np.int64), window, np.array(joints)
-        )
+            chain, joint, k, tuple(goal_adverbs), tuple(axes), np.array(columns, dtype=np.int64), window,
+            np.array(joints), _path(encoding, joint, joints),
+        )  # fmt: skip
+
+
+def _path(encoding: DofEncoding, joint: int, chain: list[int]) -> tuple:
+    """What the compiled solve reads of the goal joint's ancestors, root first (``P`` of them): each one's parent's
+    place in the path (−1: none), first rotation and translation DOF columns (−1: none), reference rotation ``(P, 4)``,
+    base translation ``(P, 3)`` and block of the chain's offset (−1: not in the chain); then the body root's place in
+    the path, the fixed frame it is decoded below (``parent_inv (4,)``, ``parent_pos (3,)``, whether there is one) and
+    its hips' axis ``lateral (3,)``."""
+    skel = encoding.skeleton
+    joints = skel.ancestors(joint)[::-1]
+    place = {j: i for i, j in enumerate(joints)}
+    parent = np.array([place.get(int(skel.parents[j]), -1) for j in joints], dtype=np.int64)
+    rotated = list(encoding.rotated)
+    rot_col = np.array([4 + 3 * rotated.index(j) if j in rotated else -1 for j in joints], dtype=np.int64)
+    translated = list(encoding.translated)
+    first = 4 + 3 * len(rotated)
+    trans_col = np.array([first + 3 * translated.index(j) if j in translated else -1 for j in joints], dtype=np.int64)
+    block = np.array([chain.index(j) if j in chain else -1 for j in joints], dtype=np.int64)
+    has_parent, parent_inv, parent_pos = encoding.above_body
+    return (
+        parent, rot_col, trans_col, np.ascontiguousarray(encoding.reference[joints], dtype=float),
+        np.ascontiguousarray(encoding.base_translations[joints], dtype=float), block, place[encoding.body_root],
+        np.ascontiguousarray(parent_inv, dtype=float), np.ascontiguousarray(parent_pos, dtype=float), bool(has_parent),
+        np.ascontiguousarray(encoding.lateral, dtype=float),
+    )  # fmt: skip
 
 
 def weight(goal: Goal, t: np.ndarray) -> np.ndarray:
@@ -228,11 +256,14 @@ def _right_jacobian(v: np.ndarray) -> np.ndarray:
     return np.eye(3) - a[..., None, None] * k + b[..., None, None] * (k @ k)
 
 
-def solve(verb, goal: Goal, weights: np.ndarray, keytimes: np.ndarray, points: np.ndarray) -> np.ndarray:
+def solve(
+    verb, goal: Goal, weights: np.ndarray, keytimes: np.ndarray, points: np.ndarray, compiled: bool = True
+) -> np.ndarray:
     """Offsets ``(R, K)`` on the goal chain's DOFs that put the goal joint where ``points (R, A)`` ask.
 
     ``weights (R, E)`` and ``keytimes (R, N)`` are those of the points (from the sampling state). The aim is
     the asked goal plus the examples' own :func:`misses` blended by ``weights``: zero offset at the examples.
+    ``compiled``: by :mod:`._goal_kernel` (default), or by the NumPy reference it is held to.
     """
     k = len(goal.columns)
     whole = np.zeros((len(points), k))
@@ -242,13 +273,32 @@ def solve(verb, goal: Goal, weights: np.ndarray, keytimes: np.ndarray, points: n
         sane = np.all(np.isfinite(keytimes), axis=1) & np.all(np.diff(keytimes, axis=1) > 0, axis=1)
         sane &= np.all(np.isfinite(weights), axis=1) & (keytimes[:, -1] <= 1e6)
         if sane.any():
-            whole[sane] = _solve(verb, goal, weights[sane], keytimes[sane], np.asarray(points, dtype=float)[sane])
+            how = _solve_compiled if compiled else _solve
+            whole[sane] = how(verb, goal, weights[sane], keytimes[sane], np.asarray(points, dtype=float)[sane])
     whole[~np.isfinite(whole).all(axis=1)] = 0.0
     return whole
 
 
+_GRID = np.linspace(0.0, 1.0, STEPS + 1)
+
+
+def _solve_compiled(verb, goal: Goal, weights: np.ndarray, keytimes: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """:func:`solve` for points whose motion has not degenerated, by the compiled kernel."""
+    r, k = len(points), len(goal.columns)
+    weights = np.ascontiguousarray(weights, dtype=float)
+    keytimes = np.ascontiguousarray(keytimes, dtype=float)
+    target = np.ascontiguousarray(points[:, list(goal.adverbs)] + weights @ verb.goal_misses)
+    out = np.empty((r, k))
+    _goal_kernel.solve_rows(
+        0, r, verb.segments, weights, keytimes, verb.generic_keytimes, _GRID, goal.keytime, target, np.zeros((r, k)),
+        *goal.path, np.array(goal.axes, dtype=np.int64), MU, 1e-3, ITERATIONS, TOLERANCE, SETTLED, out,
+        np.empty(r, dtype=np.int64),
+    )  # fmt: skip
+    return out
+
+
 def _solve(verb, goal: Goal, weights: np.ndarray, keytimes: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """:func:`solve` for points whose motion has not degenerated."""
+    """:func:`solve` for points whose motion has not degenerated: the NumPy reference."""
     r = len(points)
     k = len(goal.columns)
     out = np.zeros((r, k))

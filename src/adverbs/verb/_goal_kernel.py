@@ -1,0 +1,373 @@
+"""The compiled solve behind :func:`adverbs.verb.goal.solve`: the goal chain's offset, adverb point by adverb point.
+
+What it computes is written out in NumPy in :mod:`adverbs.verb.goal` (``_Model`` and ``_solve``), the reference a
+test holds it to. The same mathematics, with less of it:
+
+* the body root's path to the keytime reads only the root's velocity columns, so each creature's control points of
+  those three columns are blended once (``Σ_e w_e c_e``) and the :data:`~adverbs.verb.goal.STEPS` samples of the
+  path are four products each, where the reference samples every DOF at every step;
+* the pose at the keytime is sampled only in the columns the goal joint's position reads (``root.y`` and the
+  rotations and translations of its ancestors), the pose at the start only in the body root's;
+* forward kinematics runs down the goal joint's ancestors alone, and only from the first chain joint on: what is
+  above it does not move with the offset and is composed once per point;
+* the ``K × K`` Levenberg–Marquardt system is solved by a Cholesky factorization written out.
+
+The sampling arithmetic is :func:`._sampling_kernel.phase` and, for the pose, :func:`._sampling_kernel.query_into`'s
+order; decoding and forward kinematics are :mod:`adverbs.motion._pose_kernel`'s and :mod:`adverbs.kinematics._fk_kernel`'s,
+in the same order. Only the velocity blend differs from the reference by rounding (about 1e-16 of a velocity).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ..motion._pose_kernel import _exp, _mul, _rotate_about_y
+from ._sampling_kernel import ONE_SHOT, phase
+
+
+@njit(cache=True, nogil=True)
+def solve_rows(
+    lo, hi, segments, weights, keytimes, generic, grid, keytime, targets, start, path_parent, rot_col, trans_col,
+    reference, base, chain, body, parent_inv, parent_pos, has_parent, lateral, axes, mu, lam0, iterations, tolerance,
+    settled, out, steps_taken,
+):  # pragma: no cover  # fmt: skip
+    """Offsets ``out[i] (K,)`` on the goal chain of the rows ``lo ≤ i < hi``, and how many steps each took
+    (``steps_taken[i]``), by Levenberg–Marquardt from ``start[i]``.
+
+    segments (NumCP, E, D)  the verb's control points / 6;  weights (R, E), keytimes (R, N)  the rows' blend and timing
+    generic (N,)            the generic keytimes;  grid (S + 1,)  the root integration's steps in [0, 1]
+    keytime                 the goal's keytime;  targets (R, M)  where the goal joint is asked to be (measured axes)
+    path_*                  the goal joint's ancestors, root first (P,): parent within the path (−1: none), first
+                            rotation and translation DOF columns (−1: none), reference rotation (P, 4), base
+                            translation (P, 3), block of the offset (chain index, −1: not in the chain)
+    body                    the body root's place in the path; ``parent_inv``, ``parent_pos``, ``has_parent``: the
+                            fixed frame it is decoded below (the encoding's ``above_body``); ``lateral (3,)`` its hips' axis
+    axes (M,)               the measured coordinates (0-2);  mu, lam0, iterations, tolerance, settled: the solve's
+                            constants (see :mod:`adverbs.verb.goal`)
+    """
+    ncp, ne, nd = segments.shape
+    p_count = path_parent.shape[0]
+    m_count = axes.shape[0]
+    k_count = out.shape[1]
+    n_steps = grid.shape[0] - 1
+    mu2 = mu * mu
+    blend = np.empty(4)
+    vel = np.empty((ncp, 3))  # each control point's root velocities, blended
+    pose = np.zeros(nd)
+    lrot = np.empty((p_count, 4))  # local rotations and translations along the path
+    ltrans = np.empty((p_count, 3))
+    grot = np.empty((p_count, 4))  # global ones
+    gpos = np.empty((p_count, 3))
+    lrot_trial = np.empty((p_count, 4))  # the same at a trial step's offset (taken: the two swap)
+    grot_trial = np.empty((p_count, 4))
+    gpos_trial = np.empty((p_count, 3))
+    first = p_count - 1  # the first chain joint's place in the path
+    for j in range(p_count):
+        if chain[j] >= 0:
+            first = min(first, j)
+    delta = np.empty(k_count)
+    trial = np.empty(k_count)
+    step = np.empty(k_count)
+    res = np.empty(m_count)
+    trial_res = np.empty(m_count)
+    at = np.empty(m_count)
+    jac = np.empty((m_count, k_count))
+    a = np.empty((k_count, k_count))
+    rhs = np.empty(k_count)
+    frame = np.empty(7)  # to_local (4) and origin (3)
+    for i in range(lo, hi):
+        w = weights[i]
+        kt = keytimes[i, keytime]
+        # --- the body root at the keytime: its velocities integrated (DofEncoding.root_path at STEPS / kt fps) ---
+        for c in range(ncp):
+            for d in range(3):
+                vel[c, d] = 0.0
+            for e in range(ne):
+                we = w[e]
+                if we != 0.0:
+                    for d in range(3):
+                        vel[c, d] += we * segments[c, e, d]
+        dt = 1.0 / (n_steps / kt)
+        heading = 0.0
+        cum_turn = 0.0
+        x = 0.0
+        z = 0.0
+        for s in range(n_steps):
+            seg, _, _, _, _ = phase(keytimes, generic, i, kt * grid[s], ONE_SHOT, 0.0, ncp, blend)
+            vx = blend[0] * vel[seg, 0] + blend[1] * vel[seg + 1, 0] + blend[2] * vel[seg + 2, 0] + blend[3] * vel[seg + 3, 0]
+            vz = blend[0] * vel[seg, 1] + blend[1] * vel[seg + 1, 1] + blend[2] * vel[seg + 2, 1] + blend[3] * vel[seg + 3, 1]
+            turn = blend[0] * vel[seg, 2] + blend[1] * vel[seg + 1, 2] + blend[2] * vel[seg + 2, 2] + blend[3] * vel[seg + 3, 2]
+            cum_turn += turn * dt
+            h1 = cum_turn
+            sx, _, sz = _rotate_about_y(0.5 * (h1 + heading), vx, 0.0, vz)
+            x += sx * dt
+            z += sz * dt
+            heading = h1
+        # --- the character's frame at the start: the body root's heading and ground point in the pose at time 0 ---
+        seg, _, _, _, _ = phase(keytimes, generic, i, 0.0, ONE_SHOT, 0.0, ncp, blend)
+        _pose_columns(pose, segments, w, seg, blend, 3, 4)
+        _pose_columns(pose, segments, w, seg, blend, rot_col[body], rot_col[body] + 3)
+        _decode_path(pose, 0.0, 0.0, 0.0, body + 1, path_parent, rot_col, trans_col, reference, base, body, parent_inv,
+                     parent_pos, has_parent, lrot, ltrans)  # fmt: skip
+        _fk(path_parent, lrot, ltrans, 0, body + 1, grot, gpos)
+        lx, _, lz = _rotate(grot[body, 0], grot[body, 1], grot[body, 2], grot[body, 3], lateral[0], lateral[1], lateral[2])
+        half = 0.5 * -math.atan2(-lz, lx)
+        frame[0], frame[1], frame[2], frame[3] = 0.0, math.sin(half), 0.0, math.cos(half)
+        frame[4], frame[5], frame[6] = gpos[body, 0] * 1.0, gpos[body, 1] * 0.0, gpos[body, 2] * 1.0
+        # --- the pose at the keytime, in the columns the path reads; the path above the first chain joint, once ---
+        seg, _, _, _, _ = phase(keytimes, generic, i, kt * grid[n_steps], ONE_SHOT, 0.0, ncp, blend)
+        _pose_columns(pose, segments, w, seg, blend, 3, 4)
+        for j in range(p_count):
+            if rot_col[j] >= 0 and j < p_count - 1:  # the goal joint's own rotation does not move it
+                _pose_columns(pose, segments, w, seg, blend, rot_col[j], rot_col[j] + 3)
+            if trans_col[j] >= 0:
+                _pose_columns(pose, segments, w, seg, blend, trans_col[j], trans_col[j] + 3)
+        _decode_path(pose, x, z, heading, p_count, path_parent, rot_col, trans_col, reference, base, body, parent_inv,
+                     parent_pos, has_parent, lrot, ltrans)  # fmt: skip
+        _fk(path_parent, lrot, ltrans, 0, first, grot, gpos)
+        lrot_trial[:] = lrot
+        grot_trial[:] = grot
+        gpos_trial[:] = gpos
+        # --- Levenberg–Marquardt (goal._solve, written out) ---
+        for k in range(k_count):
+            delta[k] = start[i, k]
+        _reached(pose, delta, first, path_parent, rot_col, reference, chain, lrot, ltrans, grot, gpos, frame, axes, at)
+        cost = 0.0
+        norm = 0.0
+        for m in range(m_count):
+            res[m] = targets[i, m] - at[m]
+            cost += res[m] * res[m]
+        for k in range(k_count):
+            norm += delta[k] * delta[k]
+        active = math.sqrt(cost) > tolerance
+        cost += mu2 * norm
+        lam = lam0
+        taken = 0
+        while active and taken < iterations:
+            taken += 1
+            _jacobian(pose, delta, first, rot_col, chain, grot, gpos, frame, axes, jac)  # FK at delta: the last taken
+            for r in range(k_count):
+                s = 0.0
+                for m in range(m_count):
+                    s += jac[m, r] * res[m]
+                rhs[r] = s - mu2 * delta[r]
+                for c in range(r + 1):
+                    s = 0.0
+                    for m in range(m_count):
+                        s += jac[m, r] * jac[m, c]
+                    a[r, c] = s
+                a[r, r] += mu2 + lam
+            _cholesky_solve(a, rhs, step)
+            for k in range(k_count):
+                trial[k] = delta[k] + step[k]
+            _reached(pose, trial, first, path_parent, rot_col, reference, chain, lrot_trial, ltrans, grot_trial,
+                     gpos_trial, frame, axes, at)  # fmt: skip
+            trial_cost = 0.0
+            norm = 0.0
+            for m in range(m_count):
+                trial_res[m] = targets[i, m] - at[m]
+                trial_cost += trial_res[m] * trial_res[m]
+            for k in range(k_count):
+                norm += trial[k] * trial[k]
+            trial_cost += mu2 * norm
+            better = trial_cost < cost
+            done = better and cost - trial_cost <= settled * cost
+            if better:
+                lrot, lrot_trial = lrot_trial, lrot
+                grot, grot_trial = grot_trial, grot
+                gpos, gpos_trial = gpos_trial, gpos
+                for k in range(k_count):
+                    delta[k] = trial[k]
+                for m in range(m_count):
+                    res[m] = trial_res[m]
+                cost = trial_cost
+                lam = max(lam / 3.0, 1e-9)
+            else:
+                lam *= 4.0
+            size = 0.0
+            for k in range(k_count):
+                size += step[k] * step[k]
+            left = 0.0
+            for m in range(m_count):
+                left += res[m] * res[m]
+            active = math.sqrt(left) > tolerance and not math.sqrt(size) < 1e-12 and not done and lam < 1e8
+        for k in range(k_count):
+            out[i, k] = delta[k]
+        steps_taken[i] = taken
+
+
+@njit(cache=True, inline="always")
+def _rotate(x, y, z, w, vx, vy, vz):  # pragma: no cover
+    """``quat.rotate`` of one vector, the same arithmetic."""
+    tx = 2.0 * (y * vz - z * vy)
+    ty = 2.0 * (z * vx - x * vz)
+    tz = 2.0 * (x * vy - y * vx)
+    return vx + w * tx + y * tz - z * ty, vy + w * ty + z * tx - x * tz, vz + w * tz + x * ty - y * tx
+
+
+@njit(cache=True, inline="always")
+def _pose_columns(pose, segments, w, seg, blend, lo, hi):  # pragma: no cover
+    """DOF columns ``lo ≤ d < hi`` of a pose in B-spline segment ``seg`` with basis weights ``blend (4,)`` (from
+    :func:`._sampling_kernel.phase`) and blend weights ``w (E,)`` into ``pose``, summed as
+    :func:`._sampling_kernel.query_into` sums them."""
+    for d in range(lo, hi):
+        pose[d] = 0.0
+    for e in range(w.shape[0]):
+        we = w[e]
+        if we == 0.0:
+            continue
+        a0, a1, a2, a3 = blend[0] * we, blend[1] * we, blend[2] * we, blend[3] * we
+        s0, s1, s2, s3 = segments[seg, e], segments[seg + 1, e], segments[seg + 2, e], segments[seg + 3, e]
+        for d in range(lo, hi):
+            pose[d] += a0 * s0[d] + a1 * s1[d] + a2 * s2[d] + a3 * s3[d]
+
+
+@njit(cache=True)
+def _decode_path(
+    pose, x, z, heading, count, parent, rot_col, trans_col, reference, base, body, parent_inv, parent_pos, has_parent,
+    lrot, ltrans,
+):  # pragma: no cover  # fmt: skip
+    """Local rotations and translations of the first ``count`` path joints of ``pose`` with the body root at ``(x, z,
+    heading)``: ``_pose_kernel.decode_row`` for those joints."""
+    for j in range(count):
+        c = rot_col[j]
+        if c >= 0:
+            ex, ey, ez, ew = _exp(pose[c], pose[c + 1], pose[c + 2])
+            lrot[j, 0], lrot[j, 1], lrot[j, 2], lrot[j, 3] = _mul(
+                reference[j, 0], reference[j, 1], reference[j, 2], reference[j, 3], ex, ey, ez, ew
+            )
+        else:
+            lrot[j, 0], lrot[j, 1], lrot[j, 2], lrot[j, 3] = 0.0, 0.0, 0.0, 1.0
+        t = trans_col[j]
+        for a in range(3):
+            if t >= 0:
+                ltrans[j, a] = base[j, a] + pose[t + a]
+            else:
+                ltrans[j, a] = base[j, a]
+    if body < count:
+        half = 0.5 * heading
+        gx, gy, gz, gw = _mul(0.0, math.sin(half), 0.0, math.cos(half), lrot[body, 0], lrot[body, 1], lrot[body, 2],
+                              lrot[body, 3])  # fmt: skip
+        px, py, pz = x, pose[3], z
+        if has_parent:
+            qx, qy, qz, qw = parent_inv[0], parent_inv[1], parent_inv[2], parent_inv[3]
+            gx, gy, gz, gw = _mul(qx, qy, qz, qw, gx, gy, gz, gw)
+            px, py, pz = _rotate(qx, qy, qz, qw, px - parent_pos[0], py - parent_pos[1], pz - parent_pos[2])
+        lrot[body, 0], lrot[body, 1], lrot[body, 2], lrot[body, 3] = gx, gy, gz, gw
+        ltrans[body, 0], ltrans[body, 1], ltrans[body, 2] = px, py, pz
+
+
+@njit(cache=True, inline="always")
+def _fk(parent, lrot, ltrans, lo, hi, grot, gpos):  # pragma: no cover
+    """Global rotations and positions of path joints ``lo ≤ j < hi`` (those above ``lo`` known): ``_fk_kernel.forward``."""
+    for j in range(lo, hi):
+        p = parent[j]
+        if p < 0:
+            for k in range(4):
+                grot[j, k] = lrot[j, k]
+            for k in range(3):
+                gpos[j, k] = ltrans[j, k]
+            continue
+        ax, ay, az, aw = grot[p, 0], grot[p, 1], grot[p, 2], grot[p, 3]
+        grot[j, 0], grot[j, 1], grot[j, 2], grot[j, 3] = _mul(ax, ay, az, aw, lrot[j, 0], lrot[j, 1], lrot[j, 2], lrot[j, 3])
+        vx, vy, vz = _rotate(ax, ay, az, aw, ltrans[j, 0], ltrans[j, 1], ltrans[j, 2])
+        gpos[j, 0] = gpos[p, 0] + vx
+        gpos[j, 1] = gpos[p, 1] + vy
+        gpos[j, 2] = gpos[p, 2] + vz
+
+
+@njit(cache=True)
+def _reached(pose, delta, first, parent, rot_col, reference, chain, lrot, ltrans, grot, gpos, frame, axes, at):  # pragma: no cover
+    """The goal joint's measured coordinates ``at (M,)`` with offsets ``delta (K,)`` on the chain: ``goal._Model.reached``
+    for one row, the path's global rotations and positions left in ``grot``, ``gpos``. The path above ``first`` is
+    there already; the other non-chain joints' local rotations in ``lrot``."""
+    p_count = parent.shape[0]
+    goal = p_count - 1
+    for j in range(first, goal):
+        b = chain[j]
+        if b >= 0:
+            c = rot_col[j]
+            ex, ey, ez, ew = _exp(pose[c] + delta[3 * b], pose[c + 1] + delta[3 * b + 1], pose[c + 2] + delta[3 * b + 2])
+            lrot[j, 0], lrot[j, 1], lrot[j, 2], lrot[j, 3] = _mul(
+                reference[j, 0], reference[j, 1], reference[j, 2], reference[j, 3], ex, ey, ez, ew
+            )
+    _fk(parent, lrot, ltrans, first, p_count, grot, gpos)
+    tx, ty, tz, tw = frame[0], frame[1], frame[2], frame[3]
+    ux, uy, uz = _rotate(tx, ty, tz, tw, gpos[goal, 0] - frame[4], gpos[goal, 1] - frame[5], gpos[goal, 2] - frame[6])
+    for m in range(axes.shape[0]):
+        at[m] = ux if axes[m] == 0 else (uy if axes[m] == 1 else uz)
+
+
+@njit(cache=True)
+def _jacobian(pose, delta, first, rot_col, chain, grot, gpos, frame, axes, jac):  # pragma: no cover
+    """The derivatives ``jac (M, K)`` of the goal joint's measured coordinates with respect to the offsets ``delta``, the
+    path's global rotations and positions at ``delta`` in ``grot``, ``gpos`` (from :func:`_reached`): a chain joint's
+    rotation is ``ref · exp(v)``; moving ``v`` by ``δ`` turns it about the world axes ``ω = R Jr(v) e_q`` through the
+    joint, which swing the goal joint ``p`` by ``ω × (p − o)``."""
+    goal = grot.shape[0] - 1
+    tx, ty, tz, tw = frame[0], frame[1], frame[2], frame[3]
+    for j in range(first, goal):
+        b = chain[j]
+        if b < 0:
+            continue
+        c = rot_col[j]
+        vx, vy, vz = pose[c] + delta[3 * b], pose[c + 1] + delta[3 * b + 1], pose[c + 2] + delta[3 * b + 2]
+        theta2 = vx * vx + vy * vy + vz * vz
+        theta = math.sqrt(theta2)
+        if theta < 1e-4:
+            ca = 0.5 - theta2 / 24.0
+            cb = 1.0 / 6.0 - theta2 / 120.0
+        else:
+            ca = (1.0 - math.cos(theta)) / (theta * theta)
+            cb = (theta - math.sin(theta)) / (theta * theta * theta)
+        # Jr(v) = I − a [v]× + b [v]×²; column q of it, turned into the world by the joint's global rotation.
+        qx, qy, qz, qw = grot[j, 0], grot[j, 1], grot[j, 2], grot[j, 3]
+        ox, oy, oz = gpos[goal, 0] - gpos[j, 0], gpos[goal, 1] - gpos[j, 1], gpos[goal, 2] - gpos[j, 2]
+        for q in range(3):
+            # [v]× e_q and [v]× ([v]× e_q)
+            if q == 0:
+                kx, ky, kz = 0.0, vz, -vy
+            elif q == 1:
+                kx, ky, kz = -vz, 0.0, vx
+            else:
+                kx, ky, kz = vy, -vx, 0.0
+            k2x, k2y, k2z = vy * kz - vz * ky, vz * kx - vx * kz, vx * ky - vy * kx
+            cx = (1.0 if q == 0 else 0.0) - ca * kx + cb * k2x
+            cy = (1.0 if q == 1 else 0.0) - ca * ky + cb * k2y
+            cz = (1.0 if q == 2 else 0.0) - ca * kz + cb * k2z
+            wx, wy, wz = _rotate(qx, qy, qz, qw, cx, cy, cz)
+            sx, sy, sz = wy * oz - wz * oy, wz * ox - wx * oz, wx * oy - wy * ox
+            rx, ry, rz = _rotate(tx, ty, tz, tw, sx, sy, sz)
+            for m in range(axes.shape[0]):
+                jac[m, 3 * b + q] = rx if axes[m] == 0 else (ry if axes[m] == 1 else rz)
+
+
+@njit(cache=True, inline="always")
+def _cholesky_solve(a, rhs, x):  # pragma: no cover
+    """``x`` with ``A x = rhs`` for a symmetric positive definite ``A`` given by its lower triangle (overwritten by
+    its Cholesky factor)."""
+    n = rhs.shape[0]
+    for j in range(n):
+        s = a[j, j]
+        for k in range(j):
+            s -= a[j, k] * a[j, k]
+        d = math.sqrt(s)
+        a[j, j] = d
+        for r in range(j + 1, n):
+            s = a[r, j]
+            for k in range(j):
+                s -= a[r, k] * a[j, k]
+            a[r, j] = s / d
+    for r in range(n):
+        s = rhs[r]
+        for k in range(r):
+            s -= a[r, k] * x[k]
+        x[r] = s / a[r, r]
+    for r in range(n - 1, -1, -1):
+        s = x[r]
+        for k in range(r + 1, n):
+            s -= a[k, r] * x[k]
+        x[r] = s / a[r, r]
