@@ -10,7 +10,9 @@ test holds it to. The same mathematics, with less of it:
   rotations and translations of its ancestors), the pose at the start only in the body root's;
 * forward kinematics runs down the goal joint's ancestors alone, and only from the first chain joint on: what is
   above it does not move with the offset and is composed once per point;
-* the ``K × K`` Levenberg–Marquardt system is solved by a Cholesky factorization written out.
+* the ``K × K`` Levenberg–Marquardt system ``(JᵀJ + λ I) step = g`` is solved through the ``M × M`` one
+  ``(J Jᵀ + λ I) z = J g`` (``step = (g − Jᵀ z) / λ``; ``M ≤ 3`` goal axes, ``K = 15`` DOFs for the reach's chain), by a
+  Cholesky factorization written out, and a rejected step's Jacobian is kept for the next.
 
 The sampling arithmetic is :func:`._sampling_kernel.phase` and, for the pose, :func:`._sampling_kernel.query_into`'s
 order; decoding and forward kinematics are :mod:`adverbs.motion._pose_kernel`'s and :mod:`adverbs.kinematics._fk_kernel`'s,
@@ -75,8 +77,11 @@ def solve_rows(
     trial_res = np.empty(m_count)
     at = np.empty(m_count)
     jac = np.empty((m_count, k_count))
-    a = np.empty((k_count, k_count))
     rhs = np.empty(k_count)
+    jjt = np.empty((m_count, m_count))
+    small = np.empty((m_count, m_count))
+    jg = np.empty(m_count)
+    dual_z = np.empty(m_count)
     frame = np.empty(7)  # to_local (4) and origin (3)
     for i in range(lo, hi):
         w = weights[i]
@@ -146,21 +151,38 @@ def solve_rows(
         cost += mu2 * norm
         lam = lam0
         taken = 0
+        moved = True
         while active and taken < iterations:
             taken += 1
-            _jacobian(pose, delta, first, rot_col, chain, grot, gpos, frame, axes, jac)  # FK at delta: the last taken
-            for r in range(k_count):
-                s = 0.0
-                for m in range(m_count):
-                    s += jac[m, r] * res[m]
-                rhs[r] = s - mu2 * delta[r]
-                for c in range(r + 1):
+            if moved:  # a new offset: its Jacobian (FK at delta: the last trial taken); else the last one's still holds
+                _jacobian(pose, delta, first, rot_col, chain, grot, gpos, frame, axes, jac)
+                for r in range(k_count):
                     s = 0.0
                     for m in range(m_count):
-                        s += jac[m, r] * jac[m, c]
-                    a[r, c] = s
-                a[r, r] += mu2 + lam
-            _cholesky_solve(a, rhs, step)
+                        s += jac[m, r] * res[m]
+                    rhs[r] = s - mu2 * delta[r]
+                for r in range(m_count):
+                    for c in range(r + 1):
+                        s = 0.0
+                        for k in range(k_count):
+                            s += jac[r, k] * jac[c, k]
+                        jjt[r, c] = s
+                    s = 0.0
+                    for k in range(k_count):
+                        s += jac[r, k] * rhs[k]
+                    jg[r] = s
+            # (JᵀJ + λ I)⁻¹ g = (g − Jᵀ (J Jᵀ + λ I)⁻¹ J g) / λ: an M × M system where the reference solves K × K
+            damp = mu2 + lam
+            for r in range(m_count):
+                for c in range(r + 1):
+                    small[r, c] = jjt[r, c]
+                small[r, r] += damp
+            _cholesky_solve(small, jg, dual_z)
+            for k in range(k_count):
+                s = rhs[k]
+                for m in range(m_count):
+                    s -= jac[m, k] * dual_z[m]
+                step[k] = s / damp
             for k in range(k_count):
                 trial[k] = delta[k] + step[k]
             _reached(pose, trial, first, path_parent, rot_col, reference, chain, lrot_trial, ltrans, grot_trial,
@@ -175,6 +197,7 @@ def solve_rows(
             trial_cost += mu2 * norm
             better = trial_cost < cost
             done = better and cost - trial_cost <= settled * cost
+            moved = better
             if better:
                 lrot, lrot_trial = lrot_trial, lrot
                 grot, grot_trial = grot_trial, grot

@@ -23,8 +23,10 @@ so a creature's motion at a point never depends on the points it passed through.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from ..errors import AdverbsError
@@ -40,6 +42,8 @@ ITERATIONS = 40  # Levenberg–Marquardt steps at most (a reachable goal takes 4
 TOLERANCE = 1e-9  # metres: a goal this close is met (solved to rounding, so every path gets one answer)
 STEPS = 48  # steps of the root's integration from the start to the goal's keytime
 SETTLED = 1e-10  # a step that lowers the cost by less than this fraction ends the solve (out of reach: a minimum)
+LAMBDA = 1e-3  # Levenberg–Marquardt's damping at the first step
+PER_THREAD = 16  # points: fewer than this many per thread are solved on the calling thread alone
 AXES = "xyz"
 
 
@@ -289,12 +293,33 @@ def _solve_compiled(verb, goal: Goal, weights: np.ndarray, keytimes: np.ndarray,
     keytimes = np.ascontiguousarray(keytimes, dtype=float)
     target = np.ascontiguousarray(points[:, list(goal.adverbs)] + weights @ verb.goal_misses)
     out = np.empty((r, k))
-    _goal_kernel.solve_rows(
-        0, r, verb.segments, weights, keytimes, verb.generic_keytimes, _GRID, goal.keytime, target, np.zeros((r, k)),
-        *goal.path, np.array(goal.axes, dtype=np.int64), MU, 1e-3, ITERATIONS, TOLERANCE, SETTLED, out,
+    args = (
+        verb.segments, weights, keytimes, verb.generic_keytimes, _GRID, goal.keytime, target, np.zeros((r, k)),
+        *goal.path, np.array(goal.axes, dtype=np.int64), MU, LAMBDA, ITERATIONS, TOLERANCE, SETTLED, out,
         np.empty(r, dtype=np.int64),
     )  # fmt: skip
+    _in_threads(_goal_kernel.solve_rows, r, args)
     return out
+
+
+_POOL: list = []  # the threads many rows are solved on, made on first use
+
+
+def _in_threads(kernel, rows: int, args: tuple) -> None:
+    """``kernel(lo, hi, *args)`` over contiguous ranges covering ``rows``, on up to ``numba.get_num_threads()`` threads
+    (the kernel releases the GIL), at least :data:`PER_THREAD` rows each; rows are independent, so the answer is the
+    same on any number of threads."""
+    n = max(1, min(numba.get_num_threads(), rows // PER_THREAD))
+    if n == 1:
+        kernel(0, rows, *args)
+        return
+    if not _POOL or _POOL[0]._max_workers < n - 1:
+        _POOL[:] = [ThreadPoolExecutor(n - 1, thread_name_prefix="adverbs-goal")]
+    bounds = [rows * i // n for i in range(n + 1)]
+    futures = [_POOL[0].submit(kernel, bounds[i], bounds[i + 1], *args) for i in range(1, n)]
+    kernel(bounds[0], bounds[1], *args)  # this thread takes the first range
+    for f in futures:
+        f.result()
 
 
 def _solve(verb, goal: Goal, weights: np.ndarray, keytimes: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -306,7 +331,7 @@ def _solve(verb, goal: Goal, weights: np.ndarray, keytimes: np.ndarray, points: 
     target = np.asarray(points, dtype=float)[:, list(goal.adverbs)] + weights @ verb.goal_misses
     res = target - model.reached(np.arange(r), out)[0]
     cost = np.sum(res * res, axis=1)  # with MU² |Δ|², what the solve minimizes
-    lam = np.full(r, 1e-3)
+    lam = np.full(r, LAMBDA)
     active = np.sqrt(cost) > TOLERANCE
     eye = np.eye(k)
     for _ in range(ITERATIONS):
