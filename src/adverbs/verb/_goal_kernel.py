@@ -30,18 +30,49 @@ from ..motion._pose_kernel import _exp, _mul, _rotate_about_y
 from ._sampling_kernel import ONE_SHOT, phase
 
 
+@njit(cache=True)
+def tables(segments, keytimes, generic, keytime, grid, key_cols, start_cols):  # pragma: no cover
+    """What :func:`solve_rows` reads of a verb's control points ``segments (NumCP, E, D)``, for any adverb point: each
+    example's DOF columns ``key_cols`` at the goal's keytime ``(E, C)`` and ``start_cols`` at time 0 ``(E, C0)``, and
+    the root's velocity columns of the control points up to the keytime's ``(NumCP', E, 3)``.
+
+    A keytime's clock time is that keytime's generic time at every adverb point (:func:`._sampling_kernel.phase` reads
+    it as ``G_m + (G_{m+1} − G_m) · 0``, or ``· 1`` at a one-shot verb's last), so its B-spline segment and basis are
+    the verb's; ``keytimes (1, N)`` is any point's (the first example's).
+    """
+    ncp, ne, nd = segments.shape
+    blend = np.empty(4)
+    key = np.empty((ne, key_cols.shape[0]))
+    start = np.empty((ne, start_cols.shape[0]))
+    seg = 0
+    for table, cols, clock in ((key, key_cols, keytimes[0, keytime] * grid[grid.shape[0] - 1]), (start, start_cols, 0.0)):
+        s, _, _, _, _ = phase(keytimes, generic, 0, clock, ONE_SHOT, 0.0, ncp, blend)
+        seg = max(seg, s)
+        for e in range(ne):
+            for j in range(cols.shape[0]):
+                c = cols[j]
+                table[e, j] = (
+                    blend[0] * segments[s, e, c] + blend[1] * segments[s + 1, e, c] + blend[2] * segments[s + 2, e, c]
+                    + blend[3] * segments[s + 3, e, c]
+                )  # fmt: skip
+    velocities = np.ascontiguousarray(segments[: seg + 4, :, :3])
+    return velocities, key, start
+
+
 @njit(cache=True, nogil=True)
 def solve_rows(
-    lo, hi, segments, weights, keytimes, generic, grid, keytime, targets, start, path_parent, rot_col, trans_col,
-    reference, base, chain, body, parent_inv, parent_pos, has_parent, lateral, axes, mu, lam0, iterations, tolerance,
-    settled, out, steps_taken,
+    lo, hi, velocities, key_pose, start_pose, key_cols, start_cols, ncp, nd, weights, keytimes, generic, grid, keytime,
+    targets, start, path_parent, rot_col, trans_col, reference, base, chain, body, parent_inv, parent_pos, has_parent,
+    lateral, axes, mu, lam0, iterations, tolerance, settled, out, steps_taken,
 ):  # pragma: no cover  # fmt: skip
     """Offsets ``out[i] (K,)`` on the goal chain of the rows ``lo ≤ i < hi``, and how many steps each took
     (``steps_taken[i]``), by Levenberg–Marquardt from ``start[i]``.
 
-    segments (NumCP, E, D)  the verb's control points / 6;  weights (R, E), keytimes (R, N)  the rows' blend and timing
-    generic (N,)            the generic keytimes;  grid (S + 1,)  the root integration's steps in [0, 1]
-    keytime                 the goal's keytime;  targets (R, M)  where the goal joint is asked to be (measured axes)
+    velocities, key_pose, start_pose, key_cols, start_cols   the verb's :func:`tables` and the columns they hold
+    ncp, nd                 the verb's control points and DOFs
+    weights (R, E), keytimes (R, N)   the rows' blend weights and keytimes;  generic (N,)  the generic keytimes
+    grid (S + 1,)           the root integration's steps in [0, 1];  keytime  the goal's keytime
+    targets (R, M)          where the goal joint is asked to be (its measured coordinates)
     path_*                  the goal joint's ancestors, root first (P,): parent within the path (−1: none), first
                             rotation and translation DOF columns (−1: none), reference rotation (P, 4), base
                             translation (P, 3), block of the offset (chain index, −1: not in the chain)
@@ -50,20 +81,22 @@ def solve_rows(
     axes (M,)               the measured coordinates (0-2);  mu, lam0, iterations, tolerance, settled: the solve's
                             constants (see :mod:`adverbs.verb.goal`)
     """
-    ncp, ne, nd = segments.shape
+    nv, ne, _ = velocities.shape
     p_count = path_parent.shape[0]
     m_count = axes.shape[0]
     k_count = out.shape[1]
     n_steps = grid.shape[0] - 1
     mu2 = mu * mu
     blend = np.empty(4)
-    vel = np.empty((ncp, 3))  # each control point's root velocities, blended
+    vel = np.empty((nv, 3))  # each control point's root velocities, blended
     pose = np.zeros(nd)
     lrot = np.empty((p_count, 4))  # local rotations and translations along the path
     ltrans = np.empty((p_count, 3))
     grot = np.empty((p_count, 4))  # global ones
     gpos = np.empty((p_count, 3))
+    trig = np.empty((p_count, 3))  # each chain joint's angle and half angle's sine and cosine
     lrot_trial = np.empty((p_count, 4))  # the same at a trial step's offset (taken: the two swap)
+    trig_trial = np.empty((p_count, 3))
     grot_trial = np.empty((p_count, 4))
     gpos_trial = np.empty((p_count, 3))
     first = p_count - 1  # the first chain joint's place in the path
@@ -87,14 +120,15 @@ def solve_rows(
         w = weights[i]
         kt = keytimes[i, keytime]
         # --- the body root at the keytime: its velocities integrated (DofEncoding.root_path at STEPS / kt fps) ---
-        for c in range(ncp):
-            for d in range(3):
-                vel[c, d] = 0.0
+        for c in range(nv):
+            vx = vz = turn = 0.0
             for e in range(ne):
                 we = w[e]
                 if we != 0.0:
-                    for d in range(3):
-                        vel[c, d] += we * segments[c, e, d]
+                    vx += we * velocities[c, e, 0]
+                    vz += we * velocities[c, e, 1]
+                    turn += we * velocities[c, e, 2]
+            vel[c, 0], vel[c, 1], vel[c, 2] = vx, vz, turn
         dt = 1.0 / (n_steps / kt)
         heading = 0.0
         cum_turn = 0.0
@@ -102,9 +136,10 @@ def solve_rows(
         z = 0.0
         for s in range(n_steps):
             seg, _, _, _, _ = phase(keytimes, generic, i, kt * grid[s], ONE_SHOT, 0.0, ncp, blend)
-            vx = blend[0] * vel[seg, 0] + blend[1] * vel[seg + 1, 0] + blend[2] * vel[seg + 2, 0] + blend[3] * vel[seg + 3, 0]
-            vz = blend[0] * vel[seg, 1] + blend[1] * vel[seg + 1, 1] + blend[2] * vel[seg + 2, 1] + blend[3] * vel[seg + 3, 1]
-            turn = blend[0] * vel[seg, 2] + blend[1] * vel[seg + 1, 2] + blend[2] * vel[seg + 2, 2] + blend[3] * vel[seg + 3, 2]
+            b0, b1, b2, b3 = blend[0], blend[1], blend[2], blend[3]
+            vx = b0 * vel[seg, 0] + b1 * vel[seg + 1, 0] + b2 * vel[seg + 2, 0] + b3 * vel[seg + 3, 0]
+            vz = b0 * vel[seg, 1] + b1 * vel[seg + 1, 1] + b2 * vel[seg + 2, 1] + b3 * vel[seg + 3, 1]
+            turn = b0 * vel[seg, 2] + b1 * vel[seg + 1, 2] + b2 * vel[seg + 2, 2] + b3 * vel[seg + 3, 2]
             cum_turn += turn * dt
             h1 = cum_turn
             sx, _, sz = _rotate_about_y(0.5 * (h1 + heading), vx, 0.0, vz)
@@ -112,9 +147,7 @@ def solve_rows(
             z += sz * dt
             heading = h1
         # --- the character's frame at the start: the body root's heading and ground point in the pose at time 0 ---
-        seg, _, _, _, _ = phase(keytimes, generic, i, 0.0, ONE_SHOT, 0.0, ncp, blend)
-        _pose_columns(pose, segments, w, seg, blend, 3, 4)
-        _pose_columns(pose, segments, w, seg, blend, rot_col[body], rot_col[body] + 3)
+        _blend_columns(pose, w, start_pose, start_cols)
         _decode_path(pose, 0.0, 0.0, 0.0, body + 1, path_parent, rot_col, trans_col, reference, base, body, parent_inv,
                      parent_pos, has_parent, lrot, ltrans)  # fmt: skip
         _fk(path_parent, lrot, ltrans, 0, body + 1, grot, gpos)
@@ -123,13 +156,7 @@ def solve_rows(
         frame[0], frame[1], frame[2], frame[3] = 0.0, math.sin(half), 0.0, math.cos(half)
         frame[4], frame[5], frame[6] = gpos[body, 0] * 1.0, gpos[body, 1] * 0.0, gpos[body, 2] * 1.0
         # --- the pose at the keytime, in the columns the path reads; the path above the first chain joint, once ---
-        seg, _, _, _, _ = phase(keytimes, generic, i, kt * grid[n_steps], ONE_SHOT, 0.0, ncp, blend)
-        _pose_columns(pose, segments, w, seg, blend, 3, 4)
-        for j in range(p_count):
-            if rot_col[j] >= 0 and j < p_count - 1:  # the goal joint's own rotation does not move it
-                _pose_columns(pose, segments, w, seg, blend, rot_col[j], rot_col[j] + 3)
-            if trans_col[j] >= 0:
-                _pose_columns(pose, segments, w, seg, blend, trans_col[j], trans_col[j] + 3)
+        _blend_columns(pose, w, key_pose, key_cols)
         _decode_path(pose, x, z, heading, p_count, path_parent, rot_col, trans_col, reference, base, body, parent_inv,
                      parent_pos, has_parent, lrot, ltrans)  # fmt: skip
         _fk(path_parent, lrot, ltrans, 0, first, grot, gpos)
@@ -139,7 +166,8 @@ def solve_rows(
         # --- Levenberg–Marquardt (goal._solve, written out) ---
         for k in range(k_count):
             delta[k] = start[i, k]
-        _reached(pose, delta, first, path_parent, rot_col, reference, chain, lrot, ltrans, grot, gpos, frame, axes, at)
+        _reached(pose, delta, first, path_parent, rot_col, reference, chain, lrot, ltrans, grot, gpos, trig, frame, axes,
+                 at)  # fmt: skip
         cost = 0.0
         norm = 0.0
         for m in range(m_count):
@@ -155,7 +183,7 @@ def solve_rows(
         while active and taken < iterations:
             taken += 1
             if moved:  # a new offset: its Jacobian (FK at delta: the last trial taken); else the last one's still holds
-                _jacobian(pose, delta, first, rot_col, chain, grot, gpos, frame, axes, jac)
+                _jacobian(pose, delta, first, rot_col, chain, grot, gpos, trig, frame, axes, jac)
                 for r in range(k_count):
                     s = 0.0
                     for m in range(m_count):
@@ -186,7 +214,7 @@ def solve_rows(
             for k in range(k_count):
                 trial[k] = delta[k] + step[k]
             _reached(pose, trial, first, path_parent, rot_col, reference, chain, lrot_trial, ltrans, grot_trial,
-                     gpos_trial, frame, axes, at)  # fmt: skip
+                     gpos_trial, trig_trial, frame, axes, at)  # fmt: skip
             trial_cost = 0.0
             norm = 0.0
             for m in range(m_count):
@@ -200,6 +228,7 @@ def solve_rows(
             moved = better
             if better:
                 lrot, lrot_trial = lrot_trial, lrot
+                trig, trig_trial = trig_trial, trig
                 grot, grot_trial = grot_trial, grot
                 gpos, gpos_trial = gpos_trial, gpos
                 for k in range(k_count):
@@ -232,20 +261,16 @@ def _rotate(x, y, z, w, vx, vy, vz):  # pragma: no cover
 
 
 @njit(cache=True, inline="always")
-def _pose_columns(pose, segments, w, seg, blend, lo, hi):  # pragma: no cover
-    """DOF columns ``lo ≤ d < hi`` of a pose in B-spline segment ``seg`` with basis weights ``blend (4,)`` (from
-    :func:`._sampling_kernel.phase`) and blend weights ``w (E,)`` into ``pose``, summed as
-    :func:`._sampling_kernel.query_into` sums them."""
-    for d in range(lo, hi):
-        pose[d] = 0.0
+def _blend_columns(pose, w, table, cols):  # pragma: no cover
+    """``pose[cols[j]] = Σ_e w_e table[e, j]``: a pose's columns from the examples' (one of :func:`tables`)."""
+    for j in range(cols.shape[0]):
+        pose[cols[j]] = 0.0
     for e in range(w.shape[0]):
         we = w[e]
         if we == 0.0:
             continue
-        a0, a1, a2, a3 = blend[0] * we, blend[1] * we, blend[2] * we, blend[3] * we
-        s0, s1, s2, s3 = segments[seg, e], segments[seg + 1, e], segments[seg + 2, e], segments[seg + 3, e]
-        for d in range(lo, hi):
-            pose[d] += a0 * s0[d] + a1 * s1[d] + a2 * s2[d] + a3 * s3[d]
+        for j in range(cols.shape[0]):
+            pose[cols[j]] += we * table[e, j]
 
 
 @njit(cache=True)
@@ -303,19 +328,27 @@ def _fk(parent, lrot, ltrans, lo, hi, grot, gpos):  # pragma: no cover
 
 
 @njit(cache=True)
-def _reached(pose, delta, first, parent, rot_col, reference, chain, lrot, ltrans, grot, gpos, frame, axes, at):  # pragma: no cover
+def _reached(
+    pose, delta, first, parent, rot_col, reference, chain, lrot, ltrans, grot, gpos, trig, frame, axes, at
+):  # pragma: no cover  # fmt: skip
     """The goal joint's measured coordinates ``at (M,)`` with offsets ``delta (K,)`` on the chain: ``goal._Model.reached``
-    for one row, the path's global rotations and positions left in ``grot``, ``gpos``. The path above ``first`` is
-    there already; the other non-chain joints' local rotations in ``lrot``."""
+    for one row, the path's global rotations and positions left in ``grot``, ``gpos`` and each chain joint's angle
+    ``θ``, ``sin θ/2``, ``cos θ/2`` in ``trig (P, 3)`` (for :func:`_jacobian`). The path above ``first`` is there
+    already; the other non-chain joints' local rotations in ``lrot``."""
     p_count = parent.shape[0]
     goal = p_count - 1
     for j in range(first, goal):
         b = chain[j]
         if b >= 0:
             c = rot_col[j]
-            ex, ey, ez, ew = _exp(pose[c] + delta[3 * b], pose[c + 1] + delta[3 * b + 1], pose[c + 2] + delta[3 * b + 2])
+            rx, ry, rz = pose[c] + delta[3 * b], pose[c + 1] + delta[3 * b + 1], pose[c + 2] + delta[3 * b + 2]
+            angle = math.sqrt(rx * rx + ry * ry + rz * rz)  # _pose_kernel._exp, its sine and cosine kept
+            half = 0.5 * angle
+            sh, ch = math.sin(half), math.cos(half)
+            k = 0.5 - angle**2 / 48.0 if angle < 1e-8 else sh / angle
+            trig[j, 0], trig[j, 1], trig[j, 2] = angle, sh, ch
             lrot[j, 0], lrot[j, 1], lrot[j, 2], lrot[j, 3] = _mul(
-                reference[j, 0], reference[j, 1], reference[j, 2], reference[j, 3], ex, ey, ez, ew
+                reference[j, 0], reference[j, 1], reference[j, 2], reference[j, 3], rx * k, ry * k, rz * k, ch
             )
     _fk(parent, lrot, ltrans, first, p_count, grot, gpos)
     tx, ty, tz, tw = frame[0], frame[1], frame[2], frame[3]
@@ -325,11 +358,13 @@ def _reached(pose, delta, first, parent, rot_col, reference, chain, lrot, ltrans
 
 
 @njit(cache=True)
-def _jacobian(pose, delta, first, rot_col, chain, grot, gpos, frame, axes, jac):  # pragma: no cover
+def _jacobian(pose, delta, first, rot_col, chain, grot, gpos, trig, frame, axes, jac):  # pragma: no cover
     """The derivatives ``jac (M, K)`` of the goal joint's measured coordinates with respect to the offsets ``delta``, the
-    path's global rotations and positions at ``delta`` in ``grot``, ``gpos`` (from :func:`_reached`): a chain joint's
-    rotation is ``ref · exp(v)``; moving ``v`` by ``δ`` turns it about the world axes ``ω = R Jr(v) e_q`` through the
-    joint, which swing the goal joint ``p`` by ``ω × (p − o)``."""
+    path's global rotations and positions and the chain's angles at ``delta`` in ``grot``, ``gpos``, ``trig`` (from
+    :func:`_reached`): a chain joint's rotation is ``ref · exp(v)``; moving ``v`` by ``δ`` turns it about the world axes
+    ``ω = R Jr(v) e_q`` through the joint, which swing the goal joint ``p`` by ``ω × (p − o)``. ``Jr`` is
+    ``goal._right_jacobian``'s, with ``1 − cos θ = 2 sin² θ/2`` and ``sin θ = 2 sin θ/2 cos θ/2`` from the forward
+    kinematics' half angles (the reference's ``1 − cos θ`` loses digits below θ ≈ 1e-3: they agree to 1e-12 or so)."""
     goal = grot.shape[0] - 1
     tx, ty, tz, tw = frame[0], frame[1], frame[2], frame[3]
     for j in range(first, goal):
@@ -338,14 +373,14 @@ def _jacobian(pose, delta, first, rot_col, chain, grot, gpos, frame, axes, jac):
             continue
         c = rot_col[j]
         vx, vy, vz = pose[c] + delta[3 * b], pose[c + 1] + delta[3 * b + 1], pose[c + 2] + delta[3 * b + 2]
-        theta2 = vx * vx + vy * vy + vz * vz
-        theta = math.sqrt(theta2)
+        theta, sh, ch = trig[j, 0], trig[j, 1], trig[j, 2]
         if theta < 1e-4:
+            theta2 = theta * theta
             ca = 0.5 - theta2 / 24.0
             cb = 1.0 / 6.0 - theta2 / 120.0
         else:
-            ca = (1.0 - math.cos(theta)) / (theta * theta)
-            cb = (theta - math.sin(theta)) / (theta * theta * theta)
+            ca = 2.0 * sh * sh / (theta * theta)
+            cb = (theta - 2.0 * sh * ch) / (theta * theta * theta)
         # Jr(v) = I − a [v]× + b [v]×²; column q of it, turned into the world by the joint's global rotation.
         qx, qy, qz, qw = grot[j, 0], grot[j, 1], grot[j, 2], grot[j, 3]
         ox, oy, oz = gpos[goal, 0] - gpos[j, 0], gpos[goal, 1] - gpos[j, 1], gpos[goal, 2] - gpos[j, 2]

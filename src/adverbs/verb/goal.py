@@ -22,6 +22,7 @@ so a creature's motion at a point never depends on the points it passed through.
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -132,16 +133,16 @@ class Goal:
         window = np.array([generic[k - 1], generic[k], after])
         return cls(
             chain, joint, k, tuple(goal_adverbs), tuple(axes), np.array(columns, dtype=np.int64), window,
-            np.array(joints), _path(encoding, joint, joints),
+            np.array(joints), _path(encoding, joint, joints, axes),
         )  # fmt: skip
 
 
-def _path(encoding: DofEncoding, joint: int, chain: list[int]) -> tuple:
+def _path(encoding: DofEncoding, joint: int, chain: list[int], axes: list[int]) -> tuple:
     """What the compiled solve reads of the goal joint's ancestors, root first (``P`` of them): each one's parent's
     place in the path (−1: none), first rotation and translation DOF columns (−1: none), reference rotation ``(P, 4)``,
     base translation ``(P, 3)`` and block of the chain's offset (−1: not in the chain); then the body root's place in
     the path, the fixed frame it is decoded below (``parent_inv (4,)``, ``parent_pos (3,)``, whether there is one) and
-    its hips' axis ``lateral (3,)``."""
+    its hips' axis ``lateral (3,)``; last the goal's axes ``(M,)``."""
     skel = encoding.skeleton
     joints = skel.ancestors(joint)[::-1]
     place = {j: i for i, j in enumerate(joints)}
@@ -157,7 +158,7 @@ def _path(encoding: DofEncoding, joint: int, chain: list[int]) -> tuple:
         parent, rot_col, trans_col, np.ascontiguousarray(encoding.reference[joints], dtype=float),
         np.ascontiguousarray(encoding.base_translations[joints], dtype=float), block, place[encoding.body_root],
         np.ascontiguousarray(parent_inv, dtype=float), np.ascontiguousarray(parent_pos, dtype=float), bool(has_parent),
-        np.ascontiguousarray(encoding.lateral, dtype=float),
+        np.ascontiguousarray(encoding.lateral, dtype=float), np.array(axes, dtype=np.int64),
     )  # fmt: skip
 
 
@@ -294,12 +295,32 @@ def _solve_compiled(verb, goal: Goal, weights: np.ndarray, keytimes: np.ndarray,
     target = np.ascontiguousarray(points[:, list(goal.adverbs)] + weights @ verb.goal_misses)
     out = np.empty((r, k))
     args = (
-        verb.segments, weights, keytimes, verb.generic_keytimes, _GRID, goal.keytime, target, np.zeros((r, k)),
-        *goal.path, np.array(goal.axes, dtype=np.int64), MU, LAMBDA, ITERATIONS, TOLERANCE, SETTLED, out,
-        np.empty(r, dtype=np.int64),
+        *_tables(verb, goal), weights, keytimes, verb.generic_keytimes, _GRID, goal.keytime, target, np.zeros((r, k)),
+        *goal.path, MU, LAMBDA, ITERATIONS, TOLERANCE, SETTLED, out, np.empty(r, dtype=np.int64),
     )  # fmt: skip
     _in_threads(_goal_kernel.solve_rows, r, args)
     return out
+
+
+_TABLES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _tables(verb, goal: Goal) -> tuple:
+    """The verb's tables for the compiled solve (:func:`._goal_kernel.tables`, once per verb) and the columns they hold,
+    its numbers of control points and DOFs."""
+    got = _TABLES.get(verb)
+    if got is None:
+        parent, rot_col, trans_col, *_, body = goal.path[:7]
+        key = [3] + [c + a for c in rot_col[:-1] if c >= 0 for a in range(3)]  # the goal joint's rotation: not read
+        key += [c + a for c in trans_col if c >= 0 for a in range(3)]
+        key_cols = np.array(key, dtype=np.int64)
+        start_cols = np.array([3] + [rot_col[body] + a for a in range(3)], dtype=np.int64)
+        velocities, key_pose, start_pose = _goal_kernel.tables(
+            verb.segments, np.ascontiguousarray(verb.keytimes_table[:1]), verb.generic_keytimes, goal.keytime, _GRID,
+            key_cols, start_cols,
+        )  # fmt: skip
+        got = _TABLES[verb] = (velocities, key_pose, start_pose, key_cols, start_cols) + verb.segments.shape[::2]
+    return got
 
 
 _POOL: list = []  # the threads many rows are solved on, made on first use
