@@ -284,6 +284,43 @@ def solve(
     return whole
 
 
+def _solve(verb, goal: Goal, weights: np.ndarray, keytimes: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """:func:`solve` for points whose motion has not degenerated: the NumPy reference."""
+    r = len(points)
+    k = len(goal.columns)
+    out = np.zeros((r, k))
+    model = _Model(verb, goal, weights, keytimes)
+    target = np.asarray(points, dtype=float)[:, list(goal.adverbs)] + weights @ verb.goal_misses
+    res = target - model.reached(np.arange(r), out)[0]
+    cost = np.sum(res * res, axis=1)  # with MU² |Δ|², what the solve minimizes
+    lam = np.full(r, LAMBDA)
+    active = np.sqrt(cost) > TOLERANCE
+    eye = np.eye(k)
+    for _ in range(ITERATIONS):
+        sel = np.flatnonzero(active)
+        if len(sel) == 0:
+            break
+        delta = out[sel]
+        _, jac = model.reached(sel, delta, jacobian=True)
+        jt = jac.transpose(0, 2, 1)
+        a = jt @ jac + (MU * MU + lam[sel])[:, None, None] * eye
+        step = np.linalg.solve(a, (jt @ res[sel, :, None]) - MU * MU * delta[..., None])[..., 0]
+        trial = target[sel] - model.reached(sel, delta + step)[0]
+        trial_cost = np.sum(trial * trial, axis=1) + MU * MU * np.sum((delta + step) ** 2, axis=1)
+        better = trial_cost < cost[sel]
+        settled = better & (cost[sel] - trial_cost <= SETTLED * cost[sel])
+        took = sel[better]
+        out[took] = delta[better] + step[better]
+        res[took] = trial[better]
+        cost[took] = trial_cost[better]
+        lam[took] = np.maximum(lam[took] / 3.0, 1e-9)
+        lam[sel[~better]] *= 4.0
+        # Done: met, or no step makes it better (an unreachable goal at its nearest reach).
+        small = np.sqrt(np.sum(step * step, axis=1)) < 1e-12
+        active[sel] = (np.sqrt(np.sum(res[sel] ** 2, axis=1)) > TOLERANCE) & ~small & ~settled & (lam[sel] < 1e8)
+    return out
+
+
 _GRID = np.linspace(0.0, 1.0, STEPS + 1)
 
 
@@ -323,58 +360,27 @@ def _tables(verb, goal: Goal) -> tuple:
     return got
 
 
-_POOL: list = []  # the threads many rows are solved on, made on first use
+_POOL: dict = {}  # the threads many rows are solved on, by their number, made on first use
+
+
+def _threads() -> int:
+    """How many threads a large solve may use: numba's count (every core, or ``NUMBA_NUM_THREADS``)."""
+    return numba.config.NUMBA_NUM_THREADS
 
 
 def _in_threads(kernel, rows: int, args: tuple) -> None:
-    """``kernel(lo, hi, *args)`` over contiguous ranges covering ``rows``, on up to ``numba.get_num_threads()`` threads
-    (the kernel releases the GIL), at least :data:`PER_THREAD` rows each; rows are independent, so the answer is the
-    same on any number of threads."""
-    n = max(1, min(numba.get_num_threads(), rows // PER_THREAD))
+    """``kernel(lo, hi, *args)`` over contiguous ranges covering ``rows``, on up to :func:`_threads` threads (the kernel
+    releases the GIL), at least :data:`PER_THREAD` rows each; rows are independent, so the answer is the same on any
+    number of threads."""
+    n = max(1, min(_threads(), rows // PER_THREAD))
     if n == 1:
         kernel(0, rows, *args)
         return
-    if not _POOL or _POOL[0]._max_workers < n - 1:
-        _POOL[:] = [ThreadPoolExecutor(n - 1, thread_name_prefix="adverbs-goal")]
+    pool = _POOL.get(n)
+    if pool is None:
+        pool = _POOL[n] = ThreadPoolExecutor(n - 1, thread_name_prefix="adverbs-goal")
     bounds = [rows * i // n for i in range(n + 1)]
-    futures = [_POOL[0].submit(kernel, bounds[i], bounds[i + 1], *args) for i in range(1, n)]
+    futures = [pool.submit(kernel, bounds[i], bounds[i + 1], *args) for i in range(1, n)]
     kernel(bounds[0], bounds[1], *args)  # this thread takes the first range
     for f in futures:
         f.result()
-
-
-def _solve(verb, goal: Goal, weights: np.ndarray, keytimes: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """:func:`solve` for points whose motion has not degenerated: the NumPy reference."""
-    r = len(points)
-    k = len(goal.columns)
-    out = np.zeros((r, k))
-    model = _Model(verb, goal, weights, keytimes)
-    target = np.asarray(points, dtype=float)[:, list(goal.adverbs)] + weights @ verb.goal_misses
-    res = target - model.reached(np.arange(r), out)[0]
-    cost = np.sum(res * res, axis=1)  # with MU² |Δ|², what the solve minimizes
-    lam = np.full(r, LAMBDA)
-    active = np.sqrt(cost) > TOLERANCE
-    eye = np.eye(k)
-    for _ in range(ITERATIONS):
-        sel = np.flatnonzero(active)
-        if len(sel) == 0:
-            break
-        delta = out[sel]
-        _, jac = model.reached(sel, delta, jacobian=True)
-        jt = jac.transpose(0, 2, 1)
-        a = jt @ jac + (MU * MU + lam[sel])[:, None, None] * eye
-        step = np.linalg.solve(a, (jt @ res[sel, :, None]) - MU * MU * delta[..., None])[..., 0]
-        trial = target[sel] - model.reached(sel, delta + step)[0]
-        trial_cost = np.sum(trial * trial, axis=1) + MU * MU * np.sum((delta + step) ** 2, axis=1)
-        better = trial_cost < cost[sel]
-        settled = better & (cost[sel] - trial_cost <= SETTLED * cost[sel])
-        took = sel[better]
-        out[took] = delta[better] + step[better]
-        res[took] = trial[better]
-        cost[took] = trial_cost[better]
-        lam[took] = np.maximum(lam[took] / 3.0, 1e-9)
-        lam[sel[~better]] *= 4.0
-        # Done: met, or no step makes it better (an unreachable goal at its nearest reach).
-        small = np.sqrt(np.sum(step * step, axis=1)) < 1e-12
-        active[sel] = (np.sqrt(np.sum(res[sel] ** 2, axis=1)) > TOLERANCE) & ~small & ~settled & (lam[sel] < 1e8)
-    return out
