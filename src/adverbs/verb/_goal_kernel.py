@@ -381,9 +381,12 @@ def _jacobian(pose, delta, first, rot_col, chain, grot, gpos, trig, frame, axes,
         else:
             ca = 2.0 * sh * sh / (theta * theta)
             cb = (theta - 2.0 * sh * ch) / (theta * theta * theta)
-        # Jr(v) = I − a [v]× + b [v]×²; column q of it, turned into the world by the joint's global rotation.
+        # Jr(v) = I − a [v]× + b [v]×²; ω × (p − o) = R (Jr e_q × R⁻¹ (p − o)), read in the character's frame T:
+        # (T R) (Jr e_q × R⁻¹ (p − o)), one rotation a column.
         qx, qy, qz, qw = grot[j, 0], grot[j, 1], grot[j, 2], grot[j, 3]
-        ox, oy, oz = gpos[goal, 0] - gpos[j, 0], gpos[goal, 1] - gpos[j, 1], gpos[goal, 2] - gpos[j, 2]
+        ox, oy, oz = _rotate(-qx, -qy, -qz, qw, gpos[goal, 0] - gpos[j, 0], gpos[goal, 1] - gpos[j, 1],
+                             gpos[goal, 2] - gpos[j, 2])  # fmt: skip
+        ux, uy, uz, uw = _mul(tx, ty, tz, tw, qx, qy, qz, qw)
         for q in range(3):
             # [v]× e_q and [v]× ([v]× e_q)
             if q == 0:
@@ -396,9 +399,8 @@ def _jacobian(pose, delta, first, rot_col, chain, grot, gpos, trig, frame, axes,
             cx = (1.0 if q == 0 else 0.0) - ca * kx + cb * k2x
             cy = (1.0 if q == 1 else 0.0) - ca * ky + cb * k2y
             cz = (1.0 if q == 2 else 0.0) - ca * kz + cb * k2z
-            wx, wy, wz = _rotate(qx, qy, qz, qw, cx, cy, cz)
-            sx, sy, sz = wy * oz - wz * oy, wz * ox - wx * oz, wx * oy - wy * ox
-            rx, ry, rz = _rotate(tx, ty, tz, tw, sx, sy, sz)
+            sx, sy, sz = cy * oz - cz * oy, cz * ox - cx * oz, cx * oy - cy * ox
+            rx, ry, rz = _rotate(ux, uy, uz, uw, sx, sy, sz)
             for m in range(axes.shape[0]):
                 jac[m, 3 * b + q] = rx if axes[m] == 0 else (ry if axes[m] == 1 else rz)
 
