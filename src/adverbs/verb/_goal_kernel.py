@@ -62,24 +62,26 @@ def tables(segments, keytimes, generic, keytime, grid, key_cols, start_cols):  #
 @njit(cache=True, nogil=True)
 def solve_rows(
     lo, hi, velocities, key_pose, start_pose, key_cols, start_cols, ncp, nd, weights, keytimes, generic, grid, keytime,
-    targets, start, path_parent, rot_col, trans_col, reference, base, chain, body, parent_inv, parent_pos, has_parent,
-    lateral, axes, mu, lam0, iterations, tolerance, settled, out, steps_taken,
+    points, misses, path_parent, rot_col, trans_col, reference, base, chain, body, parent_inv, parent_pos, has_parent,
+    lateral, axes, adverbs, mu, lam0, iterations, tolerance, settled, longest, out, steps_taken,
 ):  # pragma: no cover  # fmt: skip
     """Offsets ``out[i] (K,)`` on the goal chain of the rows ``lo ≤ i < hi``, and how many steps each took
-    (``steps_taken[i]``), by Levenberg–Marquardt from ``start[i]``.
+    (``steps_taken[i]``), by Levenberg–Marquardt from zero; zero for a row whose keytimes or weights are not finite,
+    whose keytimes do not increase or whose motion lasts past ``longest`` seconds (``goal.solve``'s rules).
 
     velocities, key_pose, start_pose, key_cols, start_cols   the verb's :func:`tables` and the columns they hold
     ncp, nd                 the verb's control points and DOFs
     weights (R, E), keytimes (R, N)   the rows' blend weights and keytimes;  generic (N,)  the generic keytimes
     grid (S + 1,)           the root integration's steps in [0, 1];  keytime  the goal's keytime
-    targets (R, M)          where the goal joint is asked to be (its measured coordinates)
+    points (R, A), misses (E, M)   the rows' adverb points and the examples' own misses (``goal.misses``): the aim is
+                            ``points[adverbs] + w · misses``
     path_*                  the goal joint's ancestors, root first (P,): parent within the path (−1: none), first
                             rotation and translation DOF columns (−1: none), reference rotation (P, 4), base
                             translation (P, 3), block of the offset (chain index, −1: not in the chain)
     body                    the body root's place in the path; ``parent_inv``, ``parent_pos``, ``has_parent``: the
                             fixed frame it is decoded below (the encoding's ``above_body``); ``lateral (3,)`` its hips' axis
-    axes (M,)               the measured coordinates (0-2);  mu, lam0, iterations, tolerance, settled: the solve's
-                            constants (see :mod:`adverbs.verb.goal`)
+    axes (M,), adverbs (M,) the measured coordinates (0-2) and the adverbs asking for them
+    mu, lam0, iterations, tolerance, settled, longest   the solve's constants (see :mod:`adverbs.verb.goal`)
     """
     nv, ne, _ = velocities.shape
     p_count = path_parent.shape[0]
@@ -116,9 +118,25 @@ def solve_rows(
     jg = np.empty(m_count)
     dual_z = np.empty(m_count)
     frame = np.empty(7)  # to_local (4) and origin (3)
+    target = np.empty(m_count)
+    nk = keytimes.shape[1]
     for i in range(lo, hi):
         w = weights[i]
         kt = keytimes[i, keytime]
+        steps_taken[i] = 0
+        out[i, :] = 0.0
+        sane = keytimes[i, nk - 1] <= longest
+        for m in range(nk):
+            sane = sane and math.isfinite(keytimes[i, m]) and (m == 0 or keytimes[i, m] - keytimes[i, m - 1] > 0.0)
+        for e in range(ne):
+            sane = sane and math.isfinite(w[e])
+        if not sane:  # a motion degenerated so far that synthesis refuses it: no offset
+            continue
+        for m in range(m_count):
+            s = 0.0
+            for e in range(ne):
+                s += w[e] * misses[e, m]
+            target[m] = points[i, adverbs[m]] + s
         # --- the body root at the keytime: its velocities integrated (DofEncoding.root_path at STEPS / kt fps) ---
         for c in range(nv):
             vx = vz = turn = 0.0
@@ -165,13 +183,13 @@ def solve_rows(
         gpos_trial[:] = gpos
         # --- Levenberg–Marquardt (goal._solve, written out) ---
         for k in range(k_count):
-            delta[k] = start[i, k]
+            delta[k] = 0.0
         _reached(pose, delta, first, path_parent, rot_col, reference, chain, lrot, ltrans, grot, gpos, trig, frame, axes,
                  at)  # fmt: skip
         cost = 0.0
         norm = 0.0
         for m in range(m_count):
-            res[m] = targets[i, m] - at[m]
+            res[m] = target[m] - at[m]
             cost += res[m] * res[m]
         for k in range(k_count):
             norm += delta[k] * delta[k]
@@ -218,7 +236,7 @@ def solve_rows(
             trial_cost = 0.0
             norm = 0.0
             for m in range(m_count):
-                trial_res[m] = targets[i, m] - at[m]
+                trial_res[m] = target[m] - at[m]
                 trial_cost += trial_res[m] * trial_res[m]
             for k in range(k_count):
                 norm += trial[k] * trial[k]
@@ -246,8 +264,12 @@ def solve_rows(
             for m in range(m_count):
                 left += res[m] * res[m]
             active = math.sqrt(left) > tolerance and not math.sqrt(size) < 1e-12 and not done and lam < 1e8
+        finite = True
         for k in range(k_count):
-            out[i, k] = delta[k]
+            finite = finite and math.isfinite(delta[k])
+        if finite:
+            for k in range(k_count):
+                out[i, k] = delta[k]
         steps_taken[i] = taken
 
 

@@ -60,6 +60,7 @@ ITERATIONS = 40  # Levenberg–Marquardt steps at most (the reach: 9 median in i
 TOLERANCE = 1e-9  # metres: a goal this close is met (the examples' own, where the offset stays zero)
 STEPS = 48  # steps of the root's integration from the start to the goal's keytime
 SETTLED = 1e-10  # a step that lowers the cost by less than this fraction ends the solve (out of reach: a minimum)
+LONGEST = 1e6  # seconds: a point whose motion lasts longer than this (or whose keytimes do not increase) gets no offset
 LAMBDA = 1e-3  # Levenberg–Marquardt's damping at the first step
 PER_THREAD = 16  # points: fewer than this many per thread are solved on the calling thread alone
 AXES = "xyz"
@@ -150,16 +151,16 @@ class Goal:
         window = np.array([generic[k - 1], generic[k], after])
         return cls(
             chain, joint, k, tuple(goal_adverbs), tuple(axes), np.array(columns, dtype=np.int64), window,
-            np.array(joints), _path(encoding, joint, joints, axes),
+            np.array(joints), _path(encoding, joint, joints, axes, goal_adverbs),
         )  # fmt: skip
 
 
-def _path(encoding: DofEncoding, joint: int, chain: list[int], axes: list[int]) -> tuple:
+def _path(encoding: DofEncoding, joint: int, chain: list[int], axes: list[int], adverbs: list[int]) -> tuple:
     """What the compiled solve reads of the goal joint's ancestors, root first (``P`` of them): each one's parent's
     place in the path (−1: none), first rotation and translation DOF columns (−1: none), reference rotation ``(P, 4)``,
     base translation ``(P, 3)`` and block of the chain's offset (−1: not in the chain); then the body root's place in
     the path, the fixed frame it is decoded below (``parent_inv (4,)``, ``parent_pos (3,)``, whether there is one) and
-    its hips' axis ``lateral (3,)``; last the goal's axes ``(M,)``."""
+    its hips' axis ``lateral (3,)``; last the goal's axes ``(M,)`` and the adverbs that give them ``(M,)``."""
     skel = encoding.skeleton
     joints = skel.ancestors(joint)[::-1]
     place = {j: i for i, j in enumerate(joints)}
@@ -176,6 +177,7 @@ def _path(encoding: DofEncoding, joint: int, chain: list[int], axes: list[int]) 
         np.ascontiguousarray(encoding.base_translations[joints], dtype=float), block, place[encoding.body_root],
         np.ascontiguousarray(parent_inv, dtype=float), np.ascontiguousarray(parent_pos, dtype=float), bool(has_parent),
         np.ascontiguousarray(encoding.lateral, dtype=float), np.array(axes, dtype=np.int64),
+        np.array(adverbs, dtype=np.int64),
     )  # fmt: skip
 
 
@@ -287,16 +289,17 @@ def solve(
     the asked goal plus the examples' own :func:`misses` blended by ``weights``: zero offset at the examples.
     ``compiled``: by :mod:`._goal_kernel` (default), or by the NumPy reference it is held to.
     """
+    if compiled:  # the same rules, row by row in the kernel
+        return _solve_compiled(verb, goal, weights, keytimes, points)
     k = len(goal.columns)
     whole = np.zeros((len(points), k))
     # Points so far out that the motion degenerates (keytimes that overflow or collapse) get no offset: the
     # synthesis refuses them, and a run-time creature must not be stopped by them.
     with np.errstate(all="ignore"):
         sane = np.all(np.isfinite(keytimes), axis=1) & np.all(np.diff(keytimes, axis=1) > 0, axis=1)
-        sane &= np.all(np.isfinite(weights), axis=1) & (keytimes[:, -1] <= 1e6)
+        sane &= np.all(np.isfinite(weights), axis=1) & (keytimes[:, -1] <= LONGEST)
         if sane.any():
-            how = _solve_compiled if compiled else _solve
-            whole[sane] = how(verb, goal, weights[sane], keytimes[sane], np.asarray(points, dtype=float)[sane])
+            whole[sane] = _solve(verb, goal, weights[sane], keytimes[sane], np.asarray(points, dtype=float)[sane])
     whole[~np.isfinite(whole).all(axis=1)] = 0.0
     return whole
 
@@ -342,15 +345,13 @@ _GRID = np.linspace(0.0, 1.0, STEPS + 1)
 
 
 def _solve_compiled(verb, goal: Goal, weights: np.ndarray, keytimes: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """:func:`solve` for points whose motion has not degenerated, by the compiled kernel."""
-    r, k = len(points), len(goal.columns)
-    weights = np.ascontiguousarray(weights, dtype=float)
-    keytimes = np.ascontiguousarray(keytimes, dtype=float)
-    target = np.ascontiguousarray(points[:, list(goal.adverbs)] + weights @ verb.goal_misses)
-    out = np.empty((r, k))
+    """:func:`solve` by the compiled kernel: one call, the degenerate points found and given no offset in it."""
+    r = len(points)
+    out = np.empty((r, len(goal.columns)))
     args = (
-        *_tables(verb, goal), weights, keytimes, verb.generic_keytimes, _GRID, goal.keytime, target, np.zeros((r, k)),
-        *goal.path, MU, LAMBDA, ITERATIONS, TOLERANCE, SETTLED, out, np.empty(r, dtype=np.int64),
+        *_tables(verb, goal), np.ascontiguousarray(weights, dtype=float), np.ascontiguousarray(keytimes, dtype=float),
+        verb.generic_keytimes, _GRID, goal.keytime, np.ascontiguousarray(points, dtype=float), verb.goal_misses,
+        *goal.path, MU, LAMBDA, ITERATIONS, TOLERANCE, SETTLED, LONGEST, out, np.empty(r, dtype=np.int64),
     )  # fmt: skip
     _in_threads(_goal_kernel.solve_rows, r, args)
     return out
