@@ -12,7 +12,8 @@ a second untimed (kernels loaded, every path taken), the frames of the next seco
 table gives the median ms a frame and µs per creature. The last rows time 1,000 creatures playing the reach, each
 moving its reach goal (its adverbs) every frame: the goal chain solved anew for every creature, every frame; beside
 them the same crowd with its goals still (the frame without a solve), and the solve alone (``SamplingState.update``
-of the reach for the 1,000 moved points, which also recomputes their weights and keytimes) in µs per creature.
+of the reach for the 1,000 moved points, which also recomputes their weights and keytimes) in µs per creature. The
+compiled columns run the goal chain's solve on as many threads as the pass (``adverbs.verb.goal.THREADS``).
 """
 
 from __future__ import annotations
@@ -34,6 +35,7 @@ from adverbs.graph.player import step
 from adverbs.graph.queue import command
 from adverbs.graph.state import new_state
 from adverbs.runtime.frame import FramePass
+from adverbs.verb import goal as goals
 
 GRAPHS = Path(__file__).resolve().parent.parent / "graphs"
 DT = 1.0 / 30.0
@@ -76,12 +78,14 @@ def frame_ms(graph, n: int, path: str, seconds: float) -> float:
     return statistics.median(times) * 1e3
 
 
-def goal_ms(graph, n: int, compiled: bool, frames: int = 20, move: bool = True) -> float:
+def goal_ms(graph, n: int, compiled: bool, frames: int = 20, move: bool = True, threads: int | None = None) -> float:
     """Median ms a frame of ``n`` creatures playing the reach, each moving its goal (hand_x, hand_y, hand_z) a little
-    every frame (``move``; else the goals stay where they start)."""
+    every frame (``move``; else the goals stay where they start); the compiled pass and the goal chain's solve on
+    ``threads`` threads (default: all)."""
     state = new_state(graph, n, 0, "reach", stay=True)
     feet = planter(graph, n)
-    fp = FramePass(state, feet) if compiled else None
+    fp = FramePass(state, feet, threads=threads) if compiled else None
+    goals.THREADS = threads
     cols = [graph.adverb_names.index(a) for a in ("hand_x", "hand_y", "hand_z")]
     lo, hi = graph.adverb_range(0.0)
     rng = np.random.default_rng(1)
@@ -97,12 +101,14 @@ def goal_ms(graph, n: int, compiled: bool, frames: int = 20, move: bool = True) 
             plant(feet, step(state, DT), DT, state.alone)
         if f >= 3:
             times.append(time.perf_counter() - t)
+    goals.THREADS = None
     return statistics.median(times) * 1e3
 
 
-def solve_us(graph, n: int, frames: int = 20) -> float:
+def solve_us(graph, n: int, frames: int = 20, threads: int | None = None) -> float:
     """Median µs per creature of bringing the reach's sampling cache of ``n`` creatures up to date when every one's
-    goal moved a little (as in :func:`goal_ms`): weights, keytimes and the goal chain's solve."""
+    goal moved a little (as in :func:`goal_ms`): weights, keytimes and the goal chain's solve, on ``threads``."""
+    goals.THREADS = threads
     verb = graph.verbs[graph.verb_names.index("reach")]
     lo, hi = verb.points.min(axis=0), verb.points.max(axis=0)
     rng = np.random.default_rng(1)
@@ -115,18 +121,20 @@ def solve_us(graph, n: int, frames: int = 20) -> float:
         t = time.perf_counter()
         state.update(verb, points)
         times.append(time.perf_counter() - t)
+    goals.THREADS = None
     return statistics.median(times) * 1e6 / n
 
 
 def goal_rows(graph) -> list[tuple[str, ...]]:
     """The goal rows of the table: 1,000 creatures reaching, goals moved every frame and still, and the solve alone."""
-    return [
-        ("bandai, 1,000 reaching, every goal moved every frame", f"{goal_ms(graph, 1000, False):.1f} ms", "",
-         f"{goal_ms(graph, 1000, True):.1f} ms"),
-        ("bandai, 1,000 reaching, goals still", f"{goal_ms(graph, 1000, False, move=False):.1f} ms", "",
-         f"{goal_ms(graph, 1000, True, move=False):.1f} ms"),
-        ("bandai, reach: a moved goal's update and solve (µs per creature)", "", "", f"{solve_us(graph, 1000):.1f} µs"),
-    ]  # fmt: skip
+    rows = []
+    for what, move in (("every goal moved every frame", True), ("goals still", False)):
+        cells = [f"{goal_ms(graph, 1000, compiled, move=move, threads=t):.1f} ms" for compiled, t in
+                 ((False, None), (True, 1), (True, None))]  # fmt: skip
+        rows.append((f"bandai, 1,000 reaching, {what}", *cells))
+    solve = [f"{solve_us(graph, 1000, threads=t):.1f} µs" for t in (1, None)]
+    rows.append(("bandai, reach: a moved goal's update and solve (µs per creature)", "", *solve))
+    return rows
 
 
 def main() -> None:

@@ -116,7 +116,7 @@ def test_one_thread_or_many_and_one_row_or_many_give_the_same_bits(reach, monkey
     args = (reach, reach.goal, state.weights, state.keytimes, points)
     runs = {}
     for threads in (1, 2, 3):
-        monkeypatch.setattr(goals, "_threads", lambda n=threads: n)
+        monkeypatch.setattr(goals, "THREADS", threads)
         runs[threads] = goals.solve(*args)
     alone = np.concatenate([goals.solve(reach, reach.goal, state.weights[i : i + 1], state.keytimes[i : i + 1],
                                         points[i : i + 1]) for i in range(0, len(points), 37)])  # fmt: skip

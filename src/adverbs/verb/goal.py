@@ -63,6 +63,7 @@ SETTLED = 1e-10  # a step that lowers the cost by less than this fraction ends t
 LONGEST = 1e6  # seconds: a point whose motion lasts longer than this (or whose keytimes do not increase) gets no offset
 LAMBDA = 1e-3  # Levenberg–Marquardt's damping at the first step
 PER_THREAD = 16  # points: fewer than this many per thread are solved on the calling thread alone
+THREADS: int | None = None  # threads a crowd's solve may use (None: numba's count); the answer is the same on any
 AXES = "xyz"
 
 
@@ -382,8 +383,8 @@ _POOL: dict = {}  # the threads many rows are solved on, by their number, made o
 
 
 def _threads() -> int:
-    """How many threads a large solve may use: numba's count (every core, or ``NUMBA_NUM_THREADS``)."""
-    return numba.config.NUMBA_NUM_THREADS
+    """How many threads a large solve may use: :data:`THREADS`, or numba's count (every core, or ``NUMBA_NUM_THREADS``)."""
+    return numba.config.NUMBA_NUM_THREADS if THREADS is None else max(1, int(THREADS))
 
 
 def _in_threads(kernel, rows: int, args: tuple) -> None:
