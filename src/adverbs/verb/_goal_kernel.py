@@ -1,22 +1,27 @@
 """The compiled solve behind :func:`adverbs.verb.goal.solve`: the goal chain's offset, adverb point by adverb point.
 
-What it computes is written out in NumPy in :mod:`adverbs.verb.goal` (``_Model`` and ``_solve``), the reference a
-test holds it to. The same mathematics, with less of it:
+What it computes is written out in NumPy in :mod:`adverbs.verb.goal` (``_Model`` and ``_solve``), the reference
+``tests/test_goal.py`` holds it to. The same mathematics and the same Levenberg–Marquardt steps, with less arithmetic:
 
-* the body root's path to the keytime reads only the root's velocity columns, so each creature's control points of
-  those three columns are blended once (``Σ_e w_e c_e``) and the :data:`~adverbs.verb.goal.STEPS` samples of the
-  path are four products each, where the reference samples every DOF at every step;
-* the pose at the keytime is sampled only in the columns the goal joint's position reads (``root.y`` and the
-  rotations and translations of its ancestors), the pose at the start only in the body root's;
+* the body root's path to the keytime reads only the root's three velocity columns: each point's control points of
+  those are blended once (``Σ_e w_e c_e``, only up to the keytime's), and each of the
+  :data:`~adverbs.verb.goal.STEPS` samples of the path is then four products, where the reference samples every DOF
+  of the pose at every step;
+* a keytime falls at the same generic time at every point, so the pose there (and at time 0) is the blend of the
+  examples' own, read once per verb (:func:`tables`) in the columns the goal joint's position reads (``root.y`` and
+  the rotations and translations of its ancestors; at time 0 the body root's);
 * forward kinematics runs down the goal joint's ancestors alone, and only from the first chain joint on: what is
-  above it does not move with the offset and is composed once per point;
-* the ``K × K`` Levenberg–Marquardt system ``(JᵀJ + λ I) step = g`` is solved through the ``M × M`` one
-  ``(J Jᵀ + λ I) z = J g`` (``step = (g − Jᵀ z) / λ``; ``M ≤ 3`` goal axes, ``K = 15`` DOFs for the reach's chain), by a
-  Cholesky factorization written out, and a rejected step's Jacobian is kept for the next.
+  above it does not move with the offset and is composed once per point; a trial step's forward kinematics, taken,
+  is the next step's, and a rejected step's Jacobian is kept for the next;
+* the Jacobian's rotations and the right Jacobian reuse what forward kinematics computed (the joint's rotation, the
+  half angle's sine and cosine);
+* the ``K × K`` system ``(JᵀJ + λ I) step = g`` is solved through the ``M × M`` one ``(J Jᵀ + λ I) z = J g``
+  (``step = (g − Jᵀ z) / λ``; ``M ≤ 3`` goal axes, ``K = 15`` DOFs for the reach's chain), by a Cholesky
+  factorization written out.
 
-The sampling arithmetic is :func:`._sampling_kernel.phase` and, for the pose, :func:`._sampling_kernel.query_into`'s
-order; decoding and forward kinematics are :mod:`adverbs.motion._pose_kernel`'s and :mod:`adverbs.kinematics._fk_kernel`'s,
-in the same order. Only the velocity blend differs from the reference by rounding (about 1e-16 of a velocity).
+Decoding and forward kinematics are :mod:`adverbs.motion._pose_kernel`'s and :mod:`adverbs.kinematics._fk_kernel`'s
+arithmetic in the same order; the blends, the right Jacobian's ``1 − cos θ`` and the solve differ from the
+reference by rounding.
 """
 
 from __future__ import annotations
@@ -186,15 +191,8 @@ def solve_rows(
             delta[k] = 0.0
         _reached(pose, delta, first, path_parent, rot_col, reference, chain, lrot, ltrans, grot, gpos, trig, frame, axes,
                  at)  # fmt: skip
-        cost = 0.0
-        norm = 0.0
-        for m in range(m_count):
-            res[m] = target[m] - at[m]
-            cost += res[m] * res[m]
-        for k in range(k_count):
-            norm += delta[k] * delta[k]
-        active = math.sqrt(cost) > tolerance
-        cost += mu2 * norm
+        left, cost = _cost(target, at, res, delta, mu2)
+        active = math.sqrt(left) > tolerance
         lam = lam0
         taken = 0
         moved = True
@@ -233,14 +231,7 @@ def solve_rows(
                 trial[k] = delta[k] + step[k]
             _reached(pose, trial, first, path_parent, rot_col, reference, chain, lrot_trial, ltrans, grot_trial,
                      gpos_trial, trig_trial, frame, axes, at)  # fmt: skip
-            trial_cost = 0.0
-            norm = 0.0
-            for m in range(m_count):
-                trial_res[m] = target[m] - at[m]
-                trial_cost += trial_res[m] * trial_res[m]
-            for k in range(k_count):
-                norm += trial[k] * trial[k]
-            trial_cost += mu2 * norm
+            trial_left, trial_cost = _cost(target, at, trial_res, trial, mu2)
             better = trial_cost < cost
             done = better and cost - trial_cost <= settled * cost
             moved = better
@@ -254,15 +245,13 @@ def solve_rows(
                 for m in range(m_count):
                     res[m] = trial_res[m]
                 cost = trial_cost
+                left = trial_left
                 lam = max(lam / 3.0, 1e-9)
             else:
                 lam *= 4.0
             size = 0.0
             for k in range(k_count):
                 size += step[k] * step[k]
-            left = 0.0
-            for m in range(m_count):
-                left += res[m] * res[m]
             active = math.sqrt(left) > tolerance and not math.sqrt(size) < 1e-12 and not done and lam < 1e8
         finite = True
         for k in range(k_count):
@@ -271,6 +260,19 @@ def solve_rows(
             for k in range(k_count):
                 out[i, k] = delta[k]
         steps_taken[i] = taken
+
+
+@njit(cache=True, inline="always")
+def _cost(target, at, res, delta, mu2):  # pragma: no cover
+    """The residual ``res = target − at`` (written) and the solve's ``|res|²`` and cost ``|res|² + μ² |delta|²``."""
+    left = 0.0
+    for m in range(res.shape[0]):
+        res[m] = target[m] - at[m]
+        left += res[m] * res[m]
+    norm = 0.0
+    for k in range(delta.shape[0]):
+        norm += delta[k] * delta[k]
+    return left, left + mu2 * norm
 
 
 @njit(cache=True, inline="always")
