@@ -14,6 +14,7 @@ times the examples' span past them and for a goal 2 m in front of the body.
 from __future__ import annotations
 
 import dataclasses
+import multiprocessing
 
 import numpy as np
 import pytest
@@ -155,3 +156,20 @@ def test_the_keytime_pose_tables_hold_at_every_point(reach):
             first = got
         for a, b in zip(got, first):
             np.testing.assert_array_equal(a, b)
+
+
+def _solve_in_child(verb, points):
+    state = verb.state(len(points))
+    state.update(verb, points)
+    return state.goal
+
+
+def test_a_forked_process_solves_on_threads_of_its_own(reach, monkeypatch):
+    # The threads a crowd's solve runs on are made once per process: a child forked after the parent made them (a
+    # multiprocessing pool on Linux) has none of them, and solving on the parent's pool would wait forever.
+    monkeypatch.setattr(goals, "THREADS", 2)
+    points = _points(reach)["uniform inside"]
+    here = _solve_in_child(reach, points)
+    with multiprocessing.get_context("fork").Pool(1) as pool:
+        there = pool.apply_async(_solve_in_child, (reach, points)).get(timeout=120)
+    np.testing.assert_array_equal(there, here)

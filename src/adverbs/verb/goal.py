@@ -39,6 +39,7 @@ say): a change of the motion, to be made on purpose.
 
 from __future__ import annotations
 
+import os
 import weakref
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -379,7 +380,7 @@ def _tables(verb, goal: Goal) -> tuple:
     return got
 
 
-_POOL: dict = {}  # the threads many rows are solved on, by their number, made on first use
+_POOL: dict = {}  # the threads many rows are solved on, by process and number, made on first use
 
 
 def _threads() -> int:
@@ -395,9 +396,10 @@ def _in_threads(kernel, rows: int, args: tuple) -> None:
     if n == 1:
         kernel(0, rows, *args)
         return
-    pool = _POOL.get(n)
+    key = (os.getpid(), n)  # a process forked from this one has none of its threads: it makes its own pool
+    pool = _POOL.get(key)
     if pool is None:
-        pool = _POOL[n] = ThreadPoolExecutor(n - 1, thread_name_prefix="adverbs-goal")
+        pool = _POOL[key] = ThreadPoolExecutor(n - 1, thread_name_prefix="adverbs-goal")
     bounds = [rows * i // n for i in range(n + 1)]
     futures = [pool.submit(kernel, bounds[i], bounds[i + 1], *args) for i in range(1, n)]
     kernel(bounds[0], bounds[1], *args)  # this thread takes the first range
