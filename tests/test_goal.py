@@ -81,13 +81,18 @@ def test_no_offset_at_the_examples(reach):
 
 def test_a_gapped_or_reordered_chain_is_solved_as_the_reference_solves_it(reach):
     # Joints of the goal joint's ancestors left out of the chain (Spine, Shoulder_R, LowerArm_R) keep the pose's
-    # rotation; a chain listed hand first has its offset's blocks in that order.
+    # rotation; a chain listed hand first has its offset's blocks in that order; the hand itself in the chain turns
+    # about its own joint and does not move (its block stays zero).
     points = np.concatenate([v[:40] for k, v in _points(reach, seed=1).items() if k != "out of reach"])
-    for chain in (("Chest", "UpperArm_R"), ("LowerArm_R", "UpperArm_R", "Shoulder_R", "Chest", "Spine")):
+    chains = (("Chest", "UpperArm_R"), ("LowerArm_R", "UpperArm_R", "Shoulder_R", "Chest", "Spine"),
+              ("UpperArm_R", "Hand_R", "LowerArm_R"))  # fmt: skip
+    for chain in chains:
         verb = dataclasses.replace(reach, goal_chain=chain)
         compiled, reference = _both(verb, points)
         np.testing.assert_allclose(compiled, reference, rtol=0, atol=AGREE, err_msg=str(chain))
         assert np.abs(compiled).max() > 0.1
+        if "Hand_R" in chain:
+            assert np.all(compiled[:, 3:6] == 0.0)
 
 
 def test_degenerate_points_get_no_offset(reach):

@@ -116,7 +116,7 @@ def solve_rows(
     res = np.empty(m_count)
     trial_res = np.empty(m_count)
     at = np.empty(m_count)
-    jac = np.empty((m_count, k_count))
+    jac = np.zeros((m_count, k_count))  # a block of the goal joint itself (in a chain) turns it in place: zero
     rhs = np.empty(k_count)
     jjt = np.empty((m_count, m_count))
     small = np.empty((m_count, m_count))
