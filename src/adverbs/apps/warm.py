@@ -1,9 +1,9 @@
 """Compile the numba kernels once, as part of set-up (the Makefile runs ``python -m adverbs.apps.warm`` after
 installing): a few seconds of the demo's scenario, feet planted, written as BVH and glTF, takes every compiled
 loop the main job uses (sampling, time warps, poses, forward kinematics, the planter, IK, Euler angles, the
-one-pass frame) through its first call; a second of it on the readable reference path and without planting takes
-the rest (``graph --play`` and the tests use them). numba caches what it compiles next to the package, so later runs
-load it instead of compiling (about two minutes on a two-core machine, once).
+one-pass frame, the goal chain's solve) through its first call; a second of it on the readable reference path and
+without planting takes the rest (``graph --play`` and the tests use them). numba caches what it compiles next to the
+package, so later runs load it instead of compiling (about two minutes on a two-core machine, once).
 """
 
 from __future__ import annotations
@@ -12,6 +12,8 @@ import tempfile
 import time
 import warnings
 from pathlib import Path
+
+import numpy as np
 
 from ..errors import AdverbsWarning
 from ..runtime import Simulation
@@ -29,6 +31,8 @@ def main() -> None:
             for graph in sim.graphs:
                 other.add_creature(graph=graph).perform(graph.verb_names[-1], at=0.5)
             other.run(1.5)
+        for verb in {v for graph in sim.graphs for v in graph.verbs if v.goal is not None}:
+            verb.sample(verb.points, np.zeros(len(verb.points)))  # the goal chain's solve (and its tables), compiled
     print(f"compiled in {time.perf_counter() - started:.0f} s", flush=True)
 
 

@@ -282,7 +282,7 @@ def pose(verb: Verb, p: np.ndarray, clock: float, state: SamplingState | None = 
     p = np.asarray(p, dtype=float)
     if p.shape != (len(verb.adverbs),):
         raise AdverbsError(f"verb {verb.name!r} takes {len(verb.adverbs)} adverbs, got shape {p.shape}")
-    if verb.goal is not None:  # the goal chain's solve is Python: the general path
+    if verb.goal is not None:  # the goal chain's solve (compiled, a call of its own): the general path
         return _sample_state(verb, p[None], np.array([clock]), state)[0][0]
     if state is None:
         state = SamplingState.new(verb, 1)
@@ -365,7 +365,7 @@ def sample_reference(verb: Verb, points: np.ndarray, clocks: np.ndarray) -> np.n
     Every control point and log keytime interval by eq. 3 with explicit linear and radial
     coefficients, the cycle and the time warp with :mod:`~adverbs.interp.timewarp`, the spline with
     :func:`~adverbs.interp.bspline.evaluate`, the seam from the spline's end values, the goal's offset from
-    :func:`~adverbs.verb.goal.solve` (on these keytimes) weighted by :func:`~adverbs.verb.goal.weight`.
+    :func:`~adverbs.verb.goal.solve`'s NumPy reference (on these keytimes) weighted by :func:`~adverbs.verb.goal.weight`.
     """
     ip = verb.interpolator
     coef = ip.fit(verb.coefficients)
@@ -381,7 +381,7 @@ def sample_reference(verb: Verb, points: np.ndarray, clocks: np.ndarray) -> np.n
         t = timewarp.generic_time(np.array(local), k, verb.generic_keytimes)
         d = bspline.evaluate(cp, t)
         if verb.goal is not None:
-            offset = goals.solve(verb, verb.goal, ip.weights(p)[None], k[None], p[None])[0]
+            offset = goals.solve(verb, verb.goal, ip.weights(p)[None], k[None], p[None], compiled=False)[0]
             d[verb.goal.columns] += goals.weight(verb.goal, t) * offset
         if cycle > 0:
             v0, _, v1, _ = bspline.ends(cp)
