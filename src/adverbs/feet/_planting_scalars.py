@@ -23,7 +23,10 @@ def smoothstep(x):  # pragma: no cover - compiled
 
 @njit(cache=True, inline="always")
 def spring(x0, v0, t, halflife, ln2):  # pragma: no cover - compiled
-    """``planting._spring``: a critically damped offset ``x0`` with velocity ``v0``, ``t`` seconds on (``ln2``: log 2)."""
+    """``planting._spring``: a critically damped offset ``x0`` with velocity ``v0``, ``t`` seconds on (``ln2``: log 2); before it
+    starts (``t < 0``), ``x0 + v0 t``."""
+    if t < 0.0:
+        return x0 + v0 * t
     y = 2.0 * ln2 / halflife
     return (x0 + (v0 + y * x0) * t) * math.exp(-y * t)
 

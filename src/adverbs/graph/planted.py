@@ -10,7 +10,7 @@ import numpy as np
 
 from ..errors import AdverbsError
 from ..kinematics.floor import Floor
-from ..feet.planter import BALL, FREE, FootPlanter, effector_joints
+from ..feet.planter import BALL, FREE, FootPlanter, _smoothstep, effector_joints
 from .structure import Graph
 from .player import Frame
 
@@ -18,6 +18,9 @@ from .player import Frame
 REPLANT = 0.06  # metres: a held foot this far (across the floor) from where the verb playing has it is re-placed
 REPLANTED = 0.01  # metres: ... until the released foot is this near the verb's again
 LEFT_BEHIND = 0.12  # metres: in a blend, a held foot this far from where the verbs have it is re-placed
+STEP_RISE = 0.06  # seconds: a re-placed foot's lift rises over this long from its release ...
+STEP_DELAY = 0.04  # seconds: ... and it travels only after this long (lifted first) ...
+STEP_LAND = 0.03  # metres: ... and comes back down as it comes from this to REPLANTED of where the verb has it
 
 
 @dataclass
@@ -68,6 +71,18 @@ def planter(graph: Graph, creatures: int = 1, floor: Floor | None = None) -> Gra
     return GraphFeet(FootPlanter(holding[0], creatures, floor), np.zeros((creatures, len(tips)), dtype=bool))
 
 
+def _step_lift(p: FootPlanter) -> np.ndarray:
+    """How much of the least swing lift a re-placed foot has ``(C, L)``: a step, not a hop. None while it is still
+    held (it is let go this frame); rising by smoothstep over ``STEP_RISE`` from its release (its height's time,
+    which does not wait); and coming back down as its offset from where the verb has it (the planter's, as of the
+    last frame) falls from ``STEP_LAND`` to ``REPLANTED``, where it is held again. Lifted at once and dropped at
+    once, a standing foot's knee turned 470-630 deg/s in a reach whose own legs are still."""
+    off = p._offset()
+    rise = _smoothstep(p.since[..., 1] / STEP_RISE)
+    land = _smoothstep((np.hypot(off[..., 0], off[..., 2]) - REPLANTED) / (STEP_LAND - REPLANTED))
+    return np.where(p.mode == FREE, rise * land, 0.0)
+
+
 def plant(feet: GraphFeet, frame: Frame, dt: float, alone: np.ndarray):
     """The frame's feet planted: rotations ``(C, J, 4)``, translations ``(C, J, 3)`` and the IK result; feet held
     too far from where the verbs have them are re-placed (see :class:`GraphFeet`): ``REPLANT`` away where
@@ -75,9 +90,16 @@ def plant(feet: GraphFeet, frame: Frame, dt: float, alone: np.ndarray):
     a blend of two verbs."""
     p = feet.planter
     held = frame.held & ~feet.replanting
-    swing = np.where(feet.replanting, 1.0, frame.swing)  # a foot re-placed steps: it swings at the least lift
+    swing = np.where(feet.replanting, _step_lift(p), frame.swing)  # a foot re-placed steps: it swings at the least lift
+    was = p.mode.copy()
     out = p.step(frame.rotations, frame.translations, None, dt, (held, frame.roll, swing))
     if feet.replanting.any():
+        # Let go this frame: its horizontal offset starts STEP_DELAY later, at rest until then (the lift comes
+        # first); its height does not wait.
+        going = feet.replanting & (was != FREE) & (p.mode == FREE)
+        for a in (0, 2):
+            p.offset[..., a] += np.where(going, p.offset_vel[..., a] * STEP_DELAY, 0.0)
+            p.since[..., a] = np.where(going, -STEP_DELAY, p.since[..., a])
         settled = np.linalg.norm(p._offset(), axis=-1) < REPLANTED
         feet.replanting &= ~((p.mode == FREE) & settled & (p.since[..., 0] > 0))
     away = p.prev_free - p.target

@@ -46,13 +46,13 @@ from ..graph._blend_kernel import decay_row, keep_feet_row
 from ..graph._time_kernel import _clock, _generic
 from ..motion._pose_kernel import _log, _mul, advance_root_row, blend_row, decode_row, root_velocity_row
 from ..feet._planting_kernel import step as plant_step
-from ..feet._planting_scalars import hold_mode, spring
+from ..feet._planting_scalars import hold_mode, smoothstep, spring
 from ..verb._sampling_kernel import GENERIC, VELOCITIES, goal_weight, phase, query_into
 
 STARTED, FINISHED = 1, 2  # events: a transition started, or finished, this frame
 FREE, BALL = 0, 2  # planting.FREE, planting.BALL
 # Where each constant sits in ``k_`` (see frame.FramePass).
-_LATE, _MIN_DURATION, _INERTIAL, _LN2, _REPLANT, _REPLANTED, _SWING, _LIFT, _LANDS, _LEFT_BEHIND = range(10)
+_LATE, _MIN_DURATION, _INERTIAL, _LN2, _REPLANT, _REPLANTED, _SWING, _LIFT, _LANDS, _LEFT_BEHIND, _RISE, _DELAY, _LAND = range(13)
 
 
 # ----- the tables, packed: per verb, a slice of a flat array (see frame.tables and FramePass) ------------------
@@ -514,11 +514,23 @@ def _plant(lo, hi, outputs, planted, feet, start, any_replanting, k_):  # pragma
      ik_params, scratch, drop, residual, replanting) = feet  # fmt: skip
     rot, trans = planted
     n_l = held.shape[1]
+    mode, offset, offset_vel, since, settle = st[0], st[4], st[5], st[6], st[11]
+    ln2 = k_[_LN2]
+    was = np.empty((hi - lo, n_l), dtype=np.int64)
     for c in range(lo, hi):
         for i in range(n_l):
             inside[c, i] = held[c, i] and not replanting[c, i]
+            was[c - lo, i] = mode[c, i]
             if replanting[c, i]:  # a foot re-placed steps: it swings at the least lift, not along the floor
-                swing[c, i] = 1.0
+                swing[c, i] = 0.0  # planted._step_lift: none while held, up from its release, down near the verb's
+                if mode[c, i] == FREE:
+                    across = 0.0
+                    if not settle[c, i]:
+                        for a in (0, 2):
+                            x = spring(offset[c, i, a], offset_vel[c, i, a], since[c, i, a], k_[_SWING], ln2)
+                            across += x * x
+                    land = smoothstep((math.sqrt(across) - k_[_REPLANTED]) / (k_[_LAND] - k_[_REPLANTED]))
+                    swing[c, i] = smoothstep(since[c, i, 1] / k_[_RISE]) * land
     s = slice(lo, hi)
     sliced = (
         st[0][s], st[1][s], st[2][s], st[3][s], st[4][s], st[5][s], st[6][s], st[7][s], st[8][s], st[9][s], st[10][s],
@@ -529,10 +541,13 @@ def _plant(lo, hi, outputs, planted, feet, start, any_replanting, k_):  # pragma
         parents, rot[s], trans[s], generic[s], inside[s], roll[s], swing[s], True, dts[s], start, times[s], cyclic,
         verb_floor, tips, root, legs, constants, floor, sliced, chain, ik_params, out,
     )  # fmt: skip
-    mode, turn, target, offset, offset_vel, since, settle, prev_free = st[0], st[1], st[2], st[4], st[5], st[6], st[11], st[14]
-    ln2 = k_[_LN2]
+    turn, target, prev_free = st[1], st[2], st[14]
     for c in range(lo, hi):
         for i in range(n_l):
+            if any_replanting and replanting[c, i] and was[c - lo, i] != FREE and mode[c, i] == FREE:
+                for a in (0, 2):  # let go: it travels once lifted, at rest until then
+                    offset[c, i, a] += offset_vel[c, i, a] * k_[_DELAY]
+                    since[c, i, a] = -k_[_DELAY]
             if any_replanting and replanting[c, i]:
                 # Settled once the free rule's offset (FootPlanter._offset) has decayed to REPLANTED.
                 norm = 0.0
