@@ -414,12 +414,11 @@ class FootPlanter:
            move) about ``LegChains.heel_axis`` as far as its leg needs, at most ``HEEL_LIFT`` and never with
            the ankle more than ``HEEL_STEEPEST`` over the ball; only a foot its hip has passed (in full from
            ``TRAILING`` behind it): a foot under the body that its leg cannot reach (a stand too tall for its
-           legs) lowers the hips. A lifted heel comes down no faster than a
-           ``DROP_HALFLIFE`` decay. ``heel`` keeps the lift, so a foot let go leaves from the orientation it
-           was shown in (:meth:`_shown` turns held feet by it). A foot rolling off ``TRAILING`` behind its hip
-           that cannot be reached on its toes, or will not be by the next frame at the rate its lift grows, is
-           let go (toe-off comes when
-           the leg is straight): it is marked ``spent``, and the next frame releases it.
+           legs) lowers the hips. A lifted heel comes down no faster than a ``DROP_HALFLIFE`` decay. ``heel``
+           keeps the lift, so a foot let go leaves from the orientation it was shown in (:meth:`_shown` turns
+           held feet by it). A foot rolling off ``TRAILING`` behind its hip that cannot be reached on its toes,
+           or will not be by the next frame at the rate its lift grows, is let go (toe-off comes when the leg
+           is straight): it is marked ``spent``, and the next frame releases it.
         2. **The root drop.** What a held foot still cannot reach lowers the root, let go no faster than a
            ``DROP_HALFLIFE`` decay, so the body does not spring up when a stretched leg lets its foot go.
         3. **Free feet.** A swinging foot (or one being let go) out of reach of the hips so lowered does not
