@@ -129,3 +129,31 @@ def test_a_standing_foot_re_placed_steps_rather_than_hops(graphs, seed, adverbs)
     assert len(windows) >= 6, windows
     fastest = max(speed[max(a - 1, 0) : b].max() for _, _, a, b in windows)
     assert np.degrees(fastest) <= 300.0, np.degrees(fastest)
+
+
+def _root_acceleration(perf, graph):
+    """The body root's horizontal acceleration at each frame ``(F,)``, m/s², read off the frames."""
+    xz = perf.planted.global_positions()[:, graph.verbs[0].encoding.body_root][:, [0, 2]]
+    v = np.diff(xz, axis=0) * FPS
+    return np.r_[0.0, 0.0, np.linalg.norm(np.diff(v, axis=0), axis=1) * FPS]
+
+
+@pytest.mark.parametrize("seed, adverbs", POINTS["bandai"])
+def test_a_verb_looping_after_a_transition_keeps_its_own_pace(graphs, seed, adverbs):
+    """A walk or run looping into itself after a change of verb accelerates its root at most 1.5x as it does alone.
+    Under the decaying offset an interruption leaves, the body was carried by the feet's whole slip: a run dipped to
+    1.9 m/s and lurched on at 2.6 for a second (18-22 m/s², the run's own 6); now no slower than its root's own."""
+    graph = graphs["bandai"]
+    script, seconds, _, _ = SCRIPTS["bandai"]
+    cues = [Cue(t, adverbs=v) if isinstance(v, dict) else Cue(t, v) for t, v in script]
+    perf = perform(graph, cues, seconds=seconds, seed=seed, adverbs=adverbs, start="idle")
+    acc = _root_acceleration(perf, graph)
+    failures, checked = [], 0
+    for verb in ("walk", "run"):
+        alone = perform(graph, [], seconds=6.0, seed=seed, start=verb, adverbs=adverbs)
+        own = _root_acceleration(alone, graph)[30:].max()
+        for _, _, a, b in _windows(perf, graph, {(verb, verb)}):
+            checked += 1
+            if acc[a:b].max() > 1.5 * own:
+                failures.append(f"{verb} loop at {a / FPS:.2f} s: {acc[a:b].max():.1f} m/s² (its own {own:.1f})")
+    assert checked >= 3 and not failures, "\n".join(failures)

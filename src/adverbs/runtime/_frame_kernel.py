@@ -429,7 +429,8 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
         if live or cosine:
             for i in range(feet.shape[0]):
                 wts[i] = (1.0 if (held[c, i] and held_before[c, i]) else 0.0) * (1.0 - roll[c, i])
-            lo, hi = 0.0, np.inf  # in a cosine blend the blend of the verbs' own speeds (player._speeds), else any
+            # In a cosine blend the blend of the verbs' own speeds, else at least the root's own (player._speeds).
+            lo, hi = math.hypot(vel[0], vel[1]), np.inf
             if cosine:
                 lo = hi = alpha * math.hypot(d_a[0], d_a[1]) + (1.0 - alpha) * math.hypot(d_b[0], d_b[1])
             keep_feet_row(
