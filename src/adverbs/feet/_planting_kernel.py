@@ -365,10 +365,8 @@ def _heel_turn(wanted, axis, angle, rot, out):
     foot's frame, in place; ``rot``, ``out (3, 3)``: scratch."""
     if angle == 0.0:
         return
-    wx = wanted[0, 0] * axis[0] + wanted[0, 1] * axis[1] + wanted[0, 2] * axis[2]
-    wy = wanted[1, 0] * axis[0] + wanted[1, 1] * axis[1] + wanted[1, 2] * axis[2]
-    wz = wanted[2, 0] * axis[0] + wanted[2, 1] * axis[1] + wanted[2, 2] * axis[2]
-    _rotvec_matrix(wx * angle, wy * angle, wz * angle, rot)
+    _mv(wanted, axis, out[0])  # the axis in the world
+    _rotvec_matrix(out[0, 0] * angle, out[0, 1] * angle, out[0, 2] * angle, rot)
     _mm(rot, wanted, out)
     wanted[:] = out
 
@@ -398,7 +396,7 @@ def reach(hips, rises, targets, wanted, dt, tip, axis, reach_, max_drop, k_, sta
     times the shortest ``reach_``."""
     mode, turn, spent, drop, heel = state[0], state[1], state[7], state[15], state[16]
     n_l = hips.shape[1]
-    arm, hip = np.empty(3), np.empty(3)
+    arm, hip, u = np.empty(3), np.empty(3), np.empty(3)
     rot, tmp = np.empty((3, 3)), np.empty((3, 3))
     loose = np.empty(n_l, dtype=np.bool_)
     for c in range(len(drop)):
@@ -410,14 +408,12 @@ def reach(hips, rises, targets, wanted, dt, tip, axis, reach_, max_drop, k_, sta
             if held:
                 _heel_turn(w, axis[i], -heel[c, i], rot, tmp)
             _mv(w, tip[i], arm)  # ankle → effector
-            ux = w[0, 0] * axis[i, 0] + w[0, 1] * axis[i, 1] + w[0, 2] * axis[i, 2]
-            uy = w[1, 0] * axis[i, 0] + w[1, 1] * axis[i, 1] + w[1, 2] * axis[i, 2]
-            uz = w[2, 0] * axis[i, 0] + w[2, 1] * axis[i, 1] + w[2, 2] * axis[i, 2]
+            _mv(w, axis[i], u)  # the heel axis in the world
             for a in range(3):
                 hip[a] = hips[c, i, a]
             hip[1] += rises[c]
             need = _heel_needed(targets[c, i, 0] - hip[0], targets[c, i, 1] - hip[1], targets[c, i, 2] - hip[2],
-                                -arm[0], -arm[1], -arm[2], ux, uy, uz, reach_[i])  # fmt: skip
+                                -arm[0], -arm[1], -arm[2], u[0], u[1], u[2], reach_[i])  # fmt: skip
             flat = math.hypot(arm[0], arm[2])
             most = min(max(k_[_HEEL_STEEPEST] - math.atan2(-arm[1], flat), 0.0), k_[_HEEL_LIFT])
             # Only a foot the hips have passed.

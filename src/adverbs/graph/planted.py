@@ -91,12 +91,11 @@ def plant(feet: GraphFeet, frame: Frame, dt: float, alone: np.ndarray):
     p = feet.planter
     held = frame.held & ~feet.replanting
     swing = np.where(feet.replanting, _step_lift(p), frame.swing)  # a foot re-placed steps: it swings at the least lift
-    was = p.mode.copy()
     out = p.step(frame.rotations, frame.translations, None, dt, (held, frame.roll, swing))
     if feet.replanting.any():
-        # Let go this frame: its horizontal offset starts STEP_DELAY later, at rest until then (the lift comes
-        # first); its height does not wait.
-        going = feet.replanting & (was != FREE) & (p.mode == FREE)
+        # Let go this frame (free, its height's offset just begun): its horizontal offset starts STEP_DELAY later,
+        # at rest until then (the lift comes first); its height does not wait.
+        going = feet.replanting & (p.mode == FREE) & (p.since[..., 1] == 0.0)
         for a in (0, 2):
             p.offset[..., a] += np.where(going, p.offset_vel[..., a] * STEP_DELAY, 0.0)
             p.since[..., a] = np.where(going, -STEP_DELAY, p.since[..., a])

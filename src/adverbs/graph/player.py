@@ -319,16 +319,18 @@ def _velocity(old: np.ndarray, new: np.ndarray, dt: float) -> np.ndarray:
     return out
 
 
+def _cosine(state: GraphState) -> np.ndarray:
+    """Which creatures ``(C,)`` are in a cosine blend of two verbs (not inertial, not a verb's loop into itself)."""
+    return (state.active >= 0) & ~state.inertial & state.graph.between_verbs[state.active]
+
+
 def _speeds(state: GraphState, base: _Base, velocity: np.ndarray) -> np.ndarray:
     """The speed ``(C,)`` (m/s) the body of a creature carried by its feet goes at: in a cosine blend, the blend of
     the two verbs' own horizontal speeds, ``α |v_A| + (1 − α) |v_B|`` (each at its own clock, as it goes alone);
     otherwise (a decaying offset) at least the root's own, ``velocity (C, 3)`` with its inertialized offset."""
     n = state.creatures
     out = np.hypot(velocity[:, 0], velocity[:, 1])
-    moving = state.active >= 0
-    cosine = moving & ~state.inertial
-    cosine[moving] &= state.graph.between_verbs[state.active[moving]]  # (a verb's loop into itself: its own root)
-    rows = np.flatnonzero(cosine)
+    rows = np.flatnonzero(_cosine(state))
     if len(rows) == 0:
         return out
     speed_a, speed_b = np.zeros(n), np.zeros(n)
@@ -362,7 +364,7 @@ def _keep_feet(
     """
     if state.shown is None or state.held_before is None:
         return root
-    cosine = (state.active >= 0) & ~state.inertial & state.graph.between_verbs[state.active]
+    cosine = _cosine(state)
     blending = offset | cosine
     if not blending.any():
         return root

@@ -517,11 +517,9 @@ def _plant(lo, hi, outputs, planted, feet, start, any_replanting, k_):  # pragma
     n_l = held.shape[1]
     mode, offset, offset_vel, since, settle = st[0], st[4], st[5], st[6], st[11]
     ln2 = k_[_LN2]
-    was = np.empty((hi - lo, n_l), dtype=np.int64)
     for c in range(lo, hi):
         for i in range(n_l):
             inside[c, i] = held[c, i] and not replanting[c, i]
-            was[c - lo, i] = mode[c, i]
             if replanting[c, i]:  # a foot re-placed steps: it swings at the least lift, not along the floor
                 swing[c, i] = 0.0  # planted._step_lift: none while held, up from its release, down near the verb's
                 if mode[c, i] == FREE:
@@ -545,8 +543,8 @@ def _plant(lo, hi, outputs, planted, feet, start, any_replanting, k_):  # pragma
     turn, target, prev_free = st[1], st[2], st[14]
     for c in range(lo, hi):
         for i in range(n_l):
-            if any_replanting and replanting[c, i] and was[c - lo, i] != FREE and mode[c, i] == FREE:
-                for a in (0, 2):  # let go: it travels once lifted, at rest until then
+            if any_replanting and replanting[c, i] and mode[c, i] == FREE and since[c, i, 1] == 0.0:
+                for a in (0, 2):  # let go this frame: it travels once lifted, at rest until then
                     offset[c, i, a] += offset_vel[c, i, a] * k_[_DELAY]
                     since[c, i, a] = -k_[_DELAY]
             if any_replanting and replanting[c, i]:
