@@ -113,44 +113,30 @@ def _mmt(a, b, out):
 
 
 @njit(cache=True)
-def _mul(a, b, out):
-    """``quat.mul``: the Hamilton product ``a b``."""
-    out[0], out[1], out[2], out[3] = _pose_kernel._mul(a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3])
-
-
-@njit(cache=True)
 def _log(q, out):
     """``quat.log``: the rotation vector of ``q``, keeping its sign."""
     out[0], out[1], out[2] = _pose_kernel._log(q[0], q[1], q[2], q[3])
 
 
 @njit(cache=True)
-def _exp(r, out):
-    """``quat.exp``: the quaternion of rotation vector ``r``."""
-    out[0], out[1], out[2], out[3] = _pose_kernel._exp(r[0], r[1], r[2])
-
-
-@njit(cache=True)
-def _turn(held, free, w, out):
+def _turn(held, free, w, out, q):
     """``planting._turn`` of one foot: ``held`` slerped towards ``free`` by ``w`` (``quat.slerp``; one or the
-    other outside ``(0, 1)``)."""
+    other outside ``(0, 1)``); ``q (2, 4)``: scratch."""
     if w >= 1.0:
         out[:] = free
         return
     if not w > 0.0:
         out[:] = held
         return
-    a, b, ab, r = np.empty(4), np.empty(4), np.empty(4), np.empty(3)
+    a, b = q[0], q[1]
     _mat_to_quat(held, a)
     _mat_to_quat(free, b)
     if a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] < 0.0:  # the short way
         b[:] = -b
-    a_inv = np.array([-a[0], -a[1], -a[2], a[3]])
-    _mul(a_inv, b, ab)
-    _log(ab, r)
-    r *= w
-    _exp(r, ab)
-    _mul(a, ab, b)
+    x, y, z, s = _pose_kernel._mul(-a[0], -a[1], -a[2], a[3], b[0], b[1], b[2], b[3])
+    rx, ry, rz = _pose_kernel._log(x, y, z, s)
+    x, y, z, s = _pose_kernel._exp(rx * w, ry * w, rz * w)
+    b[0], b[1], b[2], b[3] = _pose_kernel._mul(a[0], a[1], a[2], a[3], x, y, z, s)
     b /= math.sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2] + b[3] * b[3])
     _quat_to_mat(b, out)
 
@@ -183,10 +169,10 @@ def _released_rot(free_rot, rel_vec, rot_since, k_, out, scratch):
 
 
 @njit(cache=True)
-def _shown(c, i, base, free_rot, turn, follows, height, tip, axis, k_, floor, state, shown, wanted, s):
+def _shown(c, i, base, free_rot, turn, follows, height, tip, axis, k_, floor, state, shown, wanted, s, q):
     """``FootPlanter._shown`` (with ``_offset``, ``_held_offset``, ``_shown_held``, ``_ground_shift``) of effector
     ``i`` of creature ``c`` in its mode now: where it is shown, into ``shown (3,)``, and its foot's wanted
-    orientation, into ``wanted (3, 3)``; ``axis (3,)``: its heel axis. ``s (4, 3, 3)``: scratch."""
+    orientation, into ``wanted (3, 3)``; ``axis (3,)``: its heel axis. ``s (4, 3, 3)``, ``q (2, 4)``: scratch."""
     mode, _, target, held_rot, offset, offset_vel, since, _, rising, rel_vec, rot_since, settle = state[:12]
     rr, tl, turned = s[0], s[1], s[2]
     _released_rot(free_rot, rel_vec[c, i], rot_since[c, i], k_, rr, s[3])
@@ -207,7 +193,7 @@ def _shown(c, i, base, free_rot, turn, follows, height, tip, axis, k_, floor, st
     if m == HEEL:
         _mm(tl, rr, wanted)
     else:
-        _turn(held_rot[c, i], rr, turn, turned)
+        _turn(held_rot[c, i], rr, turn, turned, q)
         _mm(tl, turned, wanted)
         _heel_turn(wanted, axis, state[16][c, i], s[3], turned)
     for a in range(3):
@@ -254,7 +240,7 @@ def advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, use_phase
     turns, lifts, swings = np.empty(n_l), np.empty(n_l), np.empty(n_l)
     base, vel, arm, shown, q = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(4)
     wanted, free_wanted, rel = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
-    s = np.empty((4, 3, 3))
+    s, qs = np.empty((4, 3, 3)), np.empty((2, 4))
     for c in range(n_c):
         for i in range(n_l):
             if use_phases:
@@ -302,7 +288,7 @@ def advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, use_phase
             _mm(s[0], fr, free_wanted)
             rot_since[c, i] += d
             rising[c, i] = 0.0 if follows else max(raised, 0.0) * tn
-            _shown(c, i, base, fr, turn[c, i], follows, height, tip[i], heel_axis[i], k_, floor, state, shown, wanted, s)
+            _shown(c, i, base, fr, turn[c, i], follows, height, tip[i], heel_axis[i], k_, floor, state, shown, wanted, s, qs)
             if closing:  # let go: what the foot's orientation had still to turn decays from here
                 _mmt(wanted, free_wanted, rel)
                 _mat_to_quat(rel, q)
@@ -330,7 +316,7 @@ def advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, use_phase
                     shown[a] -= arm[a]
                 _land(c, i, shown, heel_heights[i], floor, state)
                 mode[c, i] = HEEL
-                _shown(c, i, base, fr, tn, follows, height, tip[i], heel_axis[i], k_, floor, state, shown, wanted, s)
+                _shown(c, i, base, fr, tn, follows, height, tip[i], heel_axis[i], k_, floor, state, shown, wanted, s, qs)
                 low = shown[1] - _height(floor, shown[0], shown[2]) - height <= toe_lands
             # The ball is down once the rolling foot brings it to the floor (or, at the latest, at heel-off).
             if (opening and not rocking) or (mode[c, i] == HEEL and (low or tn > 0.0)):
@@ -343,7 +329,7 @@ def advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, use_phase
                 ground[c, i] = min(ground[c, i], lift)
             turn[c, i] = tn
             prev_free[c, i] = fp
-            _shown(c, i, base, fr, tn, follows, height, tip[i], heel_axis[i], k_, floor, state, shown_out[c, i], wanted_out[c, i], s)
+            _shown(c, i, base, fr, tn, follows, height, tip[i], heel_axis[i], k_, floor, state, shown_out[c, i], wanted_out[c, i], s, qs)
 
 
 # ----- the rest of a frame: _rise, reach, _ride_floor, _tilts, then IK ----------------------------------
@@ -465,12 +451,12 @@ def step(parents, rotations, translations, generic, inside_in, turn_in, swing_in
     (``_ik_kernel.solve_batch``).
 
     ``chain = (above, upper, middle, end, hinge, upper_offset, end_offset, reach)``: ``ik.LegChains``;
-    ``ik_params = (min_flex, iterations, λ², max step, max drop)``; ``out = (gpos, grot, targets, wanted,
+    ``ik_params = (min_flex, iterations, λ², max step, converged, max drop)``; ``out = (gpos, grot, targets, wanted,
     root_drop, residual)``: FK, the planter's targets and orientations, the IK's root drop and misses.
     Returns whether every target is finite (if not, the IK is not run).
     """
     above, upper, middle, end, hinge, upper_offset, end_offset, reach_ = chain
-    min_flex, iterations, lam2, max_step, max_drop = ik_params
+    min_flex, iterations, lam2, max_step, converged, max_drop = ik_params
     gpos, grot, targets, wanted, root_drop, residual = out
     tip, drop = legs[3], state[15]
     n_c, n_l = rotations.shape[0], len(tips)
@@ -505,5 +491,5 @@ def step(parents, rotations, translations, generic, inside_in, turn_in, swing_in
         if not math.isfinite(x):
             return False  # ik.solve refuses these
     solve_batch(rotations, translations, targets, tilts, above, upper, middle, end, hinge, upper_offset,
-                end_offset, tip, reach_, min_flex, iterations, lam2, max_step, max_drop, root_drop, residual)  # fmt: skip
+                end_offset, tip, reach_, min_flex, iterations, lam2, max_step, converged, max_drop, root_drop, residual)  # fmt: skip
     return True

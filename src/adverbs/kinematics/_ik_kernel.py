@@ -96,7 +96,7 @@ def _rotation(ax, ay, az, angle, out):
 @njit(cache=True)
 def solve_batch(
     rot, trans, targets, tilts, above, upper, middle, end, hinge, o_u, o_e, tip, reach, min_flex,
-    iterations, lam2, max_step, max_drop, drop_out, resid_out,
+    iterations, lam2, max_step, converged, max_drop, drop_out, resid_out,
 ):  # fmt: skip
     n_legs = len(end)
     g = np.empty((3, 3))
@@ -169,6 +169,11 @@ def solve_batch(
                 rx = goals[i, 0] - knee[0] - leg[0]
                 ry = goals[i, 1] - knee[1] - leg[1]
                 rz = goals[i, 2] - knee[2] - leg[2]
+                ux, uy, uz = o_u[i, 0], o_u[i, 1], o_u[i, 2]
+                ax, ay, az = uy * shin[2] - uz * shin[1], uz * shin[0] - ux * shin[2], ux * shin[1] - uy * shin[0]
+                flex = math.atan2(hx * ax + hy * ay + hz * az, ux * shin[0] + uy * shin[1] + uz * shin[2])
+                if math.sqrt(rx * rx + ry * ry + rz * rz) <= converged and flex >= min_flex:
+                    break  # at its target, knee bent enough: no later iteration would move it (ik.CONVERGED)
                 vx = knee[0] + leg[0] - hips[i, 0]
                 vy = knee[1] + leg[1] - hips[i, 1]
                 vz = knee[2] + leg[2] - hips[i, 2]
@@ -194,9 +199,6 @@ def solve_batch(
                     _mm(step, g_u, tmp)
                     g_u[:] = tmp
                 # knee about its hinge, flexion kept at or above min_flex
-                ux, uy, uz = o_u[i, 0], o_u[i, 1], o_u[i, 2]
-                ax, ay, az = uy * shin[2] - uz * shin[1], uz * shin[0] - ux * shin[2], ux * shin[1] - uy * shin[0]
-                flex = math.atan2(hx * ax + hy * ay + hz * az, ux * shin[0] + uy * shin[1] + uz * shin[2])
                 turn = max(flex + ks, min_flex) - flex
                 _rotation(hx, hy, hz, turn, step)
                 _mm(step, l_m[i], tmp)

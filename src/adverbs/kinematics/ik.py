@@ -32,6 +32,9 @@ ITERATIONS = 8
 MAX_DROP = 0.5  # the root is lowered by at most this fraction of the shortest leg's reach
 DAMPING = 0.01  # λ, metres
 MISS = 1e-3  # metres: an effector farther than this from its target counts as out of reach
+# metres: a chain whose effector is this near its target, its knee bent at least ``min_flex``, is done: further
+# iterations would not move it (most chains of a crowd's frame are feet already where the verb puts them)
+CONVERGED = 1e-7
 
 
 @dataclass(frozen=True, eq=False)
@@ -230,6 +233,10 @@ def solve_reference(
         leg = (g_upper @ shin[..., None])[..., 0]
         end = knee + leg
         r = targets - end
+        # A chain at its target with its knee bent enough stays as it is (this step and, unchanged, every later one).
+        shin_dir = (l_middle @ o_e[..., None])[..., 0]
+        flex = np.arctan2(np.sum(hinge * np.cross(o_u, shin_dir), axis=-1), np.sum(o_u * shin_dir, axis=-1))
+        done = (np.sqrt(np.sum(r * r, axis=-1)) <= CONVERGED) & (flex >= chains.min_flex)
         v = end - hip
         c = np.cross((g_upper @ hinge[..., None])[..., 0], leg)  # knee column of J
         # (J Jᵀ)⁻¹ = ((‖v‖² + λ²) I − v vᵀ + c cᵀ)⁻¹ by Sherman–Morrison twice.
@@ -245,14 +252,12 @@ def solve_reference(
         # A long step would leave the region where J describes the chain: shorten, keep the direction.
         size = np.sqrt(np.sum(hip_step * hip_step, axis=-1) + knee_step * knee_step)
         shrink = np.minimum(1.0, MAX_STEP / np.maximum(size, 1e-12))
-        hip_step = hip_step * shrink[..., None]
+        hip_step = np.where(done[..., None], 0.0, hip_step * shrink[..., None])
         knee_step = knee_step * shrink
-        g_upper = quat.rotvec_matrix(hip_step) @ g_upper
+        g_upper = np.where(done[..., None, None], g_upper, quat.rotvec_matrix(hip_step) @ g_upper)
         # Knee about its hinge, flexion kept at or above min_flex.
-        shin_dir = (l_middle @ o_e[..., None])[..., 0]
-        flex = np.arctan2(np.sum(hinge * np.cross(o_u, shin_dir), axis=-1), np.sum(o_u * shin_dir, axis=-1))
         new_flex = np.maximum(flex + knee_step, chains.min_flex)
-        turn = (new_flex - flex)[..., None, None]
+        turn = np.where(done, 0.0, new_flex - flex)[..., None, None]
         l_middle = (np.eye(3) + np.sin(turn) * hinge_skew + (1.0 - np.cos(turn)) * hinge_skew2) @ l_middle
 
     end = hip + (g_upper @ (o_u + (l_middle @ o_e[..., None])[..., 0])[..., None])[..., 0]
@@ -297,7 +302,7 @@ def solve(
     _kernel().solve_batch(
         rot, trans, tgt, tl, np.array(chains.above, dtype=np.int64), chains.upper, chains.middle, chains.end,
         chains.hinge, chains.upper_offset, chains.end_offset, chains.tip_offset, chains.reach, chains.min_flex,
-        int(iterations), damping * damping, MAX_STEP, MAX_DROP * float(chains.reach.min()), drop, residual,
+        int(iterations), damping * damping, MAX_STEP, CONVERGED, MAX_DROP * float(chains.reach.min()), drop, residual,
     )  # fmt: skip
     residual = residual.reshape(lead + (n_legs,))
     return IKResult(

@@ -43,6 +43,7 @@ import numpy as np
 from numba import njit
 
 from ..graph._blend_kernel import decay_row, keep_feet_row
+from ._borrow_kernel import borrowed
 from ..graph._time_kernel import _clock, _generic
 from ..motion._pose_kernel import _log, _mul, advance_root_row, blend_row, decode_row, root_velocity_row
 from ..feet._planting_kernel import step as plant_step
@@ -91,21 +92,21 @@ def _keys(caches, v, slot, c):  # pragma: no cover - compiled
     return _columns(caches, slot, v, 1)[c]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _clock_of(g, v, slot, c, verbs, caches):  # pragma: no cover - compiled
     """``clocks._clock``: clock time of generic time ``g`` of creature ``c`` in verb ``v`` (slot)."""
     generic = _generic_keys(verbs, v)
     return _clock(g, _keys(caches, v, slot, c), generic, generic.shape[0])
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _generic_of(clock, v, slot, c, verbs, caches):  # pragma: no cover - compiled
     """``clocks._generic``: the inverse of :func:`_clock_of`."""
     generic = _generic_keys(verbs, v)
     return _generic(clock, _keys(caches, v, slot, c), generic, generic.shape[0])
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _later(g, seconds, v, slot, c, verbs, caches):  # pragma: no cover - compiled
     """``clocks._later``: the generic time ``seconds`` of the creature's clock after ``g``."""
     generic = _generic_keys(verbs, v)
@@ -114,7 +115,7 @@ def _later(g, seconds, v, slot, c, verbs, caches):  # pragma: no cover - compile
     return _generic(_clock(g, keys, generic, n) + seconds, keys, generic, n)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _region_clocks(c, verbs, caches, state):  # pragma: no cover - compiled
     """``clocks._region_clocks``: clock times of the start and end of A's region and of B's."""
     verb, into, regions = state[0], state[2], state[7]
@@ -125,7 +126,7 @@ def _region_clocks(c, verbs, caches, state):  # pragma: no cover - compiled
     )  # fmt: skip
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _rates(c, verbs, caches, state):  # pragma: no cover - compiled
     """``clocks._rates``: how fast A's and B's clocks run in creature ``c``'s transition."""
     ca0, ca1, cb0, cb1 = _region_clocks(c, verbs, caches, state)
@@ -134,7 +135,7 @@ def _rates(c, verbs, caches, state):  # pragma: no cover - compiled
     return (ca1 - ca0) / length, rate_b
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _place(c, verbs, caches, state):  # pragma: no cover - compiled
     """``clocks._place``: A and B of creature ``c`` where ``β`` says, each clock through its region."""
     verb, g, into, g_into, beta, length, inertial = state[0], state[1], state[2], state[3], state[5], state[6], state[9]
@@ -232,7 +233,7 @@ def _advance(c, dt, verbs, transitions, caches, state, head, events, g_settle, k
         _place(c, verbs, caches, state)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _dofs(out, v, slot, c, g, verbs, caches, blend):  # pragma: no cover - compiled
     """``player._dofs`` of one creature: verb ``v``'s DOFs at generic time ``g`` (another cycle's shifted by the seam)
     into ``out[:D]``."""
@@ -285,7 +286,7 @@ def _base(c, ga, gb, verbs, caches, state, d_a, d_b, vel, blend):  # pragma: no 
     return alpha
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _decode(c, x, z, heading, alpha, verbs, state, d_a, d_b, rot, trans, rot_b, trans_b):  # pragma: no cover
     """``player._decode`` of one creature at the root ``(x, z, heading)``: A and B decoded, then blended."""
     verb, into, active, inertial = state[0], state[2], state[4], state[9]
@@ -314,7 +315,7 @@ def _relative_into(a, b, out):  # pragma: no cover - compiled
     out[0], out[1], out[2] = _log(x, y, z, w)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _phases(v, slot, c, g, verbs, caches, held, roll, swing):  # pragma: no cover - compiled
     """``player.hold_phases`` of one verb instance: its holds at generic time ``g`` into the graph's feet columns."""
     for i in range(held.shape[0]):
@@ -492,7 +493,8 @@ def frame_planted(lo, hi, dt, flags, turns, box, feet):  # pragma: no cover - co
 
 @njit(cache=True)
 def _frame(lo, hi, dt, flags, turns, boxed, feet):  # pragma: no cover - compiled
-    verbs, transitions, skeleton, caches, state, head, poses, outputs, k_, chunk, n_d, planted_sets = boxed
+    # Every array given, borrowed: the views the pass takes of them are not counted (see _borrow_kernel).
+    verbs, transitions, skeleton, caches, state, head, poses, outputs, k_, chunk, n_d, planted_sets = borrowed(boxed)
     new, shown, before = poses[turns[0]], poses[turns[1]], poses[turns[2]]
     buffers = (new[0], new[1], new[2], shown[0], shown[1], before[0], before[1])
     planted = planted_sets[turns[3]]
@@ -512,7 +514,7 @@ def _plant(lo, hi, outputs, planted, feet, start, any_replanting, k_):  # pragma
     to re-place (``GraphFeet``). ``start``: the planter's first frame; ``any_replanting``: any foot being re-placed."""
     held, roll, swing, alone = outputs[0], outputs[1], outputs[2], outputs[3]
     (parents, generic, inside, dts, times, cyclic, verb_floor, tips, root, legs, constants, floor, st, chain,
-     ik_params, scratch, drop, residual, replanting) = feet  # fmt: skip
+     ik_params, scratch, drop, residual, replanting) = borrowed(feet)  # fmt: skip
     rot, trans = planted
     n_l = held.shape[1]
     mode, offset, offset_vel, since, settle = st[0], st[4], st[5], st[6], st[11]
