@@ -14,7 +14,7 @@ import adverbs
 SRC = Path(adverbs.__file__).resolve().parent
 ROOT = SRC.parent.parent
 # Bottom to top. `graph` and `runtime` are the layers to come (verb graphs, the run-time loop).
-LAYERS = ["errors", "limits", "compiled", "interp", "kinematics", "motion", "io", "verb", "feet", "graph", "runtime", "dataset", "apps"]
+LAYERS = ["errors", "limits", "compiled", "_scratch_kernel", "interp", "kinematics", "motion", "io", "verb", "feet", "graph", "runtime", "dataset", "apps"]
 FACADE = {"adverbs", "adverbs.__main__"}  # the package's front door re-exports from every layer
 
 

@@ -26,6 +26,7 @@ import math
 import numpy as np
 from numba import njit
 
+from .._scratch_kernel import carve
 from ..kinematics._fk_kernel import forward
 from ..kinematics._ik_kernel import _mat_to_quat, _mm, _mv, _quat_to_mat, _rotation, solve_batch
 from ..motion import _pose_kernel
@@ -237,10 +238,20 @@ def advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, use_phase
     n_c, n_l = free_pos.shape[0], free_pos.shape[1]
     clearance, still_down, lifts_off, toe_lands = k_[_CLEARANCE], k_[_STILL_DOWN], k_[_LIFTS_OFF], k_[_TOE_LANDS]
     inside = np.empty(n_l, dtype=np.bool_)
-    turns, lifts, swings = np.empty(n_l), np.empty(n_l), np.empty(n_l)
-    base, vel, arm, shown, q = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(4)
-    wanted, free_wanted, rel = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3))
-    s, qs = np.empty((4, 3, 3)), np.empty((2, 4))
+    buf = np.empty(3 * n_l + 4 * 3 + 4 + 3 * 9 + 4 * 9 + 2 * 4)
+    turns, at = carve(buf, 0, (n_l,))
+    lifts, at = carve(buf, at, (n_l,))
+    swings, at = carve(buf, at, (n_l,))
+    base, at = carve(buf, at, (3,))
+    vel, at = carve(buf, at, (3,))
+    arm, at = carve(buf, at, (3,))
+    shown, at = carve(buf, at, (3,))
+    q, at = carve(buf, at, (4,))
+    wanted, at = carve(buf, at, (3, 3))
+    free_wanted, at = carve(buf, at, (3, 3))
+    rel, at = carve(buf, at, (3, 3))
+    s, at = carve(buf, at, (4, 3, 3))
+    qs, at = carve(buf, at, (2, 4))
     for c in range(n_c):
         for i in range(n_l):
             if use_phases:
@@ -382,8 +393,12 @@ def reach(hips, rises, targets, wanted, dt, tip, axis, reach_, max_drop, k_, sta
     times the shortest ``reach_``."""
     mode, turn, spent, drop, heel = state[0], state[1], state[7], state[15], state[16]
     n_l = hips.shape[1]
-    arm, hip, u = np.empty(3), np.empty(3), np.empty(3)
-    rot, tmp = np.empty((3, 3)), np.empty((3, 3))
+    buf = np.empty(3 * 3 + 2 * 9)
+    arm, at = carve(buf, 0, (3,))
+    hip, at = carve(buf, at, (3,))
+    u, at = carve(buf, at, (3,))
+    rot, at = carve(buf, at, (3, 3))
+    tmp, at = carve(buf, at, (3, 3))
     loose = np.empty(n_l, dtype=np.bool_)
     for c in range(len(drop)):
         fade = math.exp(-k_[_FADE] * dt[c])
@@ -461,8 +476,12 @@ def step(parents, rotations, translations, generic, inside_in, turn_in, swing_in
     tip, drop = legs[3], state[15]
     n_c, n_l = rotations.shape[0], len(tips)
     forward(parents, rotations, translations, gpos, grot)
-    free_pos, free_rot = np.empty((n_c, n_l, 3)), np.empty((n_c, n_l, 3, 3))
-    hips, rises = np.empty((n_c, n_l, 3)), np.empty(n_c)
+    buf = np.empty(n_c * (24 * n_l + 1))
+    free_pos, at = carve(buf, 0, (n_c, n_l, 3))
+    free_rot, at = carve(buf, at, (n_c, n_l, 3, 3))
+    hips, at = carve(buf, at, (n_c, n_l, 3))
+    tilts, at = carve(buf, at, (n_c, n_l, 3, 3))
+    rises, at = carve(buf, at, (n_c,))
     for c in range(n_c):
         for i in range(n_l):
             free_pos[c, i] = gpos[c, tips[i]]
@@ -474,7 +493,6 @@ def step(parents, rotations, translations, generic, inside_in, turn_in, swing_in
     reach(hips, rises, targets, wanted, dt, tip, legs[4], reach_, max_drop, k_, state)
     pelvis = above[len(above) - 1]
     parent = parents[pelvis]
-    tilts = np.empty((n_c, n_l, 3, 3))
     for c in range(n_c):
         ux, uy, uz = 0.0, 1.0, 0.0  # world up, in the pelvis's parent frame: quat.rotate(quat.inv(g), up)
         if parent >= 0:

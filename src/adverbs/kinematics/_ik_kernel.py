@@ -11,6 +11,8 @@ import math
 import numpy as np
 from numba import njit
 
+from .._scratch_kernel import carve
+
 
 @njit(cache=True, inline="always")
 def _quat_to_mat(q, m):
@@ -99,24 +101,25 @@ def solve_batch(
     iterations, lam2, max_step, converged, max_drop, drop_out, resid_out,
 ):  # fmt: skip
     n_legs = len(end)
-    g = np.empty((3, 3))
-    outer = np.empty((3, 3))
-    tmp = np.empty((3, 3))
-    tmp2 = np.empty((3, 3))
-    rj = np.empty((3, 3))
-    p = np.empty(3)
-    v3 = np.empty(3)
-    hips = np.empty((n_legs, 3))
-    goals = np.empty((n_legs, 3))
-    l_u = np.empty((n_legs, 3, 3))
-    l_m = np.empty((n_legs, 3, 3))
-    wanted = np.empty((n_legs, 3, 3))
-    g_u = np.empty((3, 3))
-    step = np.empty((3, 3))
-    shin = np.empty(3)
-    knee = np.empty(3)
-    leg = np.empty(3)
-    hg = np.empty(3)
+    buf = np.empty(7 * 9 + 6 * 3 + n_legs * 33)
+    g, at = carve(buf, 0, (3, 3))
+    outer, at = carve(buf, at, (3, 3))
+    tmp, at = carve(buf, at, (3, 3))
+    tmp2, at = carve(buf, at, (3, 3))
+    rj, at = carve(buf, at, (3, 3))
+    g_u, at = carve(buf, at, (3, 3))
+    step, at = carve(buf, at, (3, 3))
+    p, at = carve(buf, at, (3,))
+    v3, at = carve(buf, at, (3,))
+    shin, at = carve(buf, at, (3,))
+    knee, at = carve(buf, at, (3,))
+    leg, at = carve(buf, at, (3,))
+    hg, at = carve(buf, at, (3,))
+    hips, at = carve(buf, at, (n_legs, 3))
+    goals, at = carve(buf, at, (n_legs, 3))
+    l_u, at = carve(buf, at, (n_legs, 3, 3))
+    l_m, at = carve(buf, at, (n_legs, 3, 3))
+    wanted, at = carve(buf, at, (n_legs, 3, 3))
     for b in range(rot.shape[0]):
         g[:] = 0.0
         g[0, 0] = g[1, 1] = g[2, 2] = 1.0

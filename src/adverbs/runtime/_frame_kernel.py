@@ -42,6 +42,7 @@ import math
 import numpy as np
 from numba import njit
 
+from .._scratch_kernel import carve
 from ..graph._blend_kernel import decay_row, keep_feet_row
 from ._borrow_kernel import borrowed
 from ..graph._time_kernel import _clock, _generic
@@ -446,11 +447,30 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
 @njit(cache=True)
 def _scratch(n_d, n_j, n_l):  # pragma: no cover - compiled
     """One chunk's working arrays (see :func:`_creature`)."""
+    buf = np.empty(4 * n_d + 4 * 3 + 4 + 28 * n_j + 3 * n_l)
+    d_a, at = carve(buf, 0, (n_d,))
+    d_b, at = carve(buf, at, (n_d,))
+    e_a, at = carve(buf, at, (n_d,))
+    e_b, at = carve(buf, at, (n_d,))
+    vel, at = carve(buf, at, (3,))
+    vel0, at = carve(buf, at, (3,))
+    r1, at = carve(buf, at, (3,))
+    r2, at = carve(buf, at, (3,))
+    blend, at = carve(buf, at, (4,))
+    rot_b, at = carve(buf, at, (n_j, 4))
+    trans_b, at = carve(buf, at, (n_j, 3))
+    rot0, at = carve(buf, at, (n_j, 4))
+    trans0, at = carve(buf, at, (n_j, 3))
+    rb, at = carve(buf, at, (n_l,))
+    sb, at = carve(buf, at, (n_l,))
+    wts, at = carve(buf, at, (n_l,))
+    now_pos, at = carve(buf, at, (1, n_j, 3))
+    now_rot, at = carve(buf, at, (1, n_j, 4))
+    was_pos, at = carve(buf, at, (1, n_j, 3))
+    was_rot, at = carve(buf, at, (1, n_j, 4))
     return (
-        np.empty(n_d), np.empty(n_d), np.empty(n_d), np.empty(n_d), np.empty(3), np.empty(3), np.empty(3), np.empty(3),
-        np.empty(4), np.empty((n_j, 4)), np.empty((n_j, 3)), np.empty((n_j, 4)), np.empty((n_j, 3)),
-        np.empty(n_l, dtype=np.bool_), np.empty(n_l), np.empty(n_l), np.empty(n_l), np.empty((1, n_j, 3)),
-        np.empty((1, n_j, 4)), np.empty((1, n_j, 3)), np.empty((1, n_j, 4)),
+        d_a, d_b, e_a, e_b, vel, vel0, r1, r2, blend, rot_b, trans_b, rot0, trans0, np.empty(n_l, dtype=np.bool_), rb, sb,
+        wts, now_pos, now_rot, was_pos, was_rot,
     )  # fmt: skip
 
 
@@ -476,25 +496,26 @@ def frame(lo, hi, dt, flags, turns, box):  # pragma: no cover - compiled
     """One frame of creatures ``lo`` to ``hi``, feet not planted: :func:`_chunk`, chunk by chunk. Releases the GIL:
     threads run other ranges of creatures at the same time.
 
-    ``flags = (first, shown, shown before, held before, planter starting, any foot re-placed)``; ``turns``: which
-    of the three pose buffers is new, shown and shown before, and which of the two planted ones is written.
-    ``box``: what does not change from frame to frame, ``(verbs, transitions, skeleton, caches, state, head, poses,
-    outputs, k_, chunk, n_d, planted)``.
+    ``flags = (first, shown, shown before, held before, planter starting)``; ``turns``: which of the three pose
+    buffers is new, shown and shown before, and which of the two planted ones is written. ``box``: what does not
+    change from frame to frame, ``(verbs, transitions, skeleton, caches, state, head, poses, outputs, k_, chunk, n_d,
+    planted)``, held (``_borrow_kernel.hold``). Returns whether every foot target was finite (always, here) and how
+    many creatures have an event for Python to settle.
     """
     return _frame(lo, hi, dt, flags, turns, box, None)
 
 
 @njit(cache=True, nogil=True)
 def frame_planted(lo, hi, dt, flags, turns, box, feet):  # pragma: no cover - compiled
-    """:func:`frame`, then :func:`_plant` on each chunk's poses; ``feet``: the planter's arrays. Returns whether every
-    foot target was finite."""
+    """:func:`frame`, then :func:`_plant` on each chunk's poses; ``feet``: the planter's arrays, held."""
     return _frame(lo, hi, dt, flags, turns, box, feet)
 
 
 @njit(cache=True)
-def _frame(lo, hi, dt, flags, turns, boxed, feet):  # pragma: no cover - compiled
+def _frame(lo, hi, dt, flags, turns, held, feet):  # pragma: no cover - compiled
     # Every array given, borrowed: the views the pass takes of them are not counted (see _borrow_kernel).
-    verbs, transitions, skeleton, caches, state, head, poses, outputs, k_, chunk, n_d, planted_sets = borrowed(boxed)
+    boxed = borrowed(held.box)
+    verbs, transitions, skeleton, caches, state, head, poses, outputs, k_, chunk, n_d, planted_sets = boxed
     new, shown, before = poses[turns[0]], poses[turns[1]], poses[turns[2]]
     buffers = (new[0], new[1], new[2], shown[0], shown[1], before[0], before[1])
     planted = planted_sets[turns[3]]
@@ -504,17 +525,22 @@ def _frame(lo, hi, dt, flags, turns, boxed, feet):  # pragma: no cover - compile
         _chunk(start, stop, dt, flags[:4], verbs, transitions, skeleton, caches, state, head, buffers, outputs, k_,
                n_d, planted)  # fmt: skip
         if feet is not None:
-            finite = _plant(start, stop, outputs, planted, feet, flags[4], flags[5], k_) and finite
-    return finite
+            finite = _plant(start, stop, outputs, planted, feet, flags[4], k_) and finite
+    events = outputs[4]
+    n_events = 0
+    for c in range(lo, hi):
+        if events[c] != 0:
+            n_events += 1
+    return finite, n_events
 
 
 @njit(cache=True)
-def _plant(lo, hi, outputs, planted, feet, start, any_replanting, k_):  # pragma: no cover - compiled
+def _plant(lo, hi, outputs, planted, feet, start, k_):  # pragma: no cover - compiled
     """``planted.plant`` for creatures ``lo`` to ``hi``: the planter's kernel on their poses (in place), then which feet
-    to re-place (``GraphFeet``). ``start``: the planter's first frame; ``any_replanting``: any foot being re-placed."""
+    to re-place (``GraphFeet``). ``start``: the planter's first frame."""
     held, roll, swing, alone = outputs[0], outputs[1], outputs[2], outputs[3]
     (parents, generic, inside, dts, times, cyclic, verb_floor, tips, root, legs, constants, floor, st, chain,
-     ik_params, scratch, drop, residual, replanting) = borrowed(feet)  # fmt: skip
+     ik_params, scratch, drop, residual, replanting) = borrowed(feet.box)  # fmt: skip
     rot, trans = planted
     n_l = held.shape[1]
     mode, offset, offset_vel, since, settle = st[0], st[4], st[5], st[6], st[11]
@@ -545,11 +571,11 @@ def _plant(lo, hi, outputs, planted, feet, start, any_replanting, k_):  # pragma
     turn, target, prev_free = st[1], st[2], st[14]
     for c in range(lo, hi):
         for i in range(n_l):
-            if any_replanting and replanting[c, i] and mode[c, i] == FREE and since[c, i, 1] == 0.0:
+            if replanting[c, i] and mode[c, i] == FREE and since[c, i, 1] == 0.0:
                 for a in (0, 2):  # let go this frame: it travels once lifted, at rest until then
                     offset[c, i, a] += offset_vel[c, i, a] * k_[_DELAY]
                     since[c, i, a] = -k_[_DELAY]
-            if any_replanting and replanting[c, i]:
+            if replanting[c, i]:
                 # Settled once the free rule's offset (FootPlanter._offset) has decayed to REPLANTED.
                 norm = 0.0
                 if not settle[c, i]:

@@ -39,6 +39,7 @@ from ..graph.structure import Graph
 from ..feet import planter as planting
 from ..verb.sampling import SamplingState
 from . import _frame_kernel as kernel
+from ._borrow_kernel import Held, hold
 
 CHUNK = 64  # creatures: each chunk allocates the kernel's working arrays once a frame, and plants its feet in one call
 PER_THREAD = 32  # creatures: fewer than this many per thread run on the calling thread alone
@@ -282,23 +283,25 @@ class FramePass:
         has_shown = self._take(state.shown, shown)
         has_before = self._take(state.shown_before, before)
         planting_on = plant and self.feet is not None
-        start = any_replanting = False
+        start = False
         if planting_on:
             p = self.feet.planter
             p._compiled.dt[:] = dt
-            start, any_replanting = not p.started, bool(self.feet.replanting.any())
-        flags = (first, has_shown, has_before, has_held_before, start, any_replanting)
+            start = not p.started
+        flags = (first, has_shown, has_before, has_held_before, start)
         turns = (new, shown, before, self._turn)
         planted = self._planted[self._turn]
         box = self._box()
         if planting_on:
             feet = self._feet()
-            finite = all(self._pool.run(self._planted_kernel, state.creatures, (dt, flags, turns, box, feet), (box, feet)))
+            ranges = self._pool.run(self._planted_kernel, state.creatures, (dt, flags, turns, box, feet), (box, feet))
         else:
-            finite = all(self._pool.run(self._kernel, state.creatures, (dt, flags, turns, box), (box,)))
+            ranges = self._pool.run(self._kernel, state.creatures, (dt, flags, turns, box), (box,))
+        finite = all(ok for ok, _ in ranges)
         if planting_on:
             self.feet.planter.started = True
-        self._events()
+        if any(events for _, events in ranges):
+            self._events()
         self._turns = (before, new, shown)
         self._turn ^= 1
         state.shown_before, state.shown = state.shown, self._poses[new]
@@ -318,9 +321,9 @@ class FramePass:
                 a[...] = b
         return True
 
-    def _box(self) -> tuple:
-        """What the kernel reads and writes that stays put from frame to frame (made again only when an array was
-        replaced: the reference path replaces some)."""
+    def _box(self) -> Held:
+        """What the kernel reads and writes that stays put from frame to frame, held in one object (made again only
+        when an array was replaced: the reference path replaces some)."""
         state = self.state
         arrays = (
             state.verb, state.g, state.into, state.g_into, state.active, state.beta, state.length, state.regions,
@@ -334,14 +337,14 @@ class FramePass:
         t = self.tables
         outputs = (self.held, self.roll, self.swing, self.alone, self.events, self.g_settle)
         self._box_key = key
-        self._boxed = (
+        self._boxed = hold((
             t.verbs, t.transitions, t.skeleton, self._caches, arrays, state.head, tuple(self._poses), outputs,
             self.constants, CHUNK, t.dofs, tuple(self._planted),
-        )  # fmt: skip
+        ))  # fmt: skip
         return self._boxed
 
-    def _feet(self) -> tuple:
-        """The planter's arrays as the kernel takes them (made again only when one was replaced)."""
+    def _feet(self) -> Held:
+        """The planter's arrays as the kernel takes them, held (made again only when one was replaced)."""
         feet = self.feet
         p = feet.planter
         comp = p._compiled
@@ -350,11 +353,11 @@ class FramePass:
         if self._feet_key is not None and all(map(operator.is_, key, self._feet_key)):
             return self._feet_boxed
         self._feet_key = key
-        self._feet_boxed = (
+        self._feet_boxed = hold((
             comp.parents, comp.no_generic, self._inside, comp.dt, times, bool(p.verb.cyclic), float(p.verb.floor),
             comp.tips, comp.root, comp.legs, comp.constants, comp.floor, state, comp.chain, comp.ik_params,
             self._ik_out, self._drop, self._residual, feet.replanting,
-        )  # fmt: skip
+        ))  # fmt: skip
         return self._feet_boxed
 
     def _events(self) -> None:
