@@ -234,14 +234,30 @@ class Graph:
 
     def leaving(self, verb: int) -> list[int]:
         """Indices of the transitions out of ``verb``, in the graph's order."""
-        return [k for k, t in enumerate(self.transitions) if t.source == verb]
+        return list(self._leaving[verb])
 
     def loop(self, verb: int) -> int | None:
         """The transition of ``verb`` into itself (the first, if several), or None."""
-        for k, t in enumerate(self.transitions):
-            if t.source == verb and t.target == verb:
-                return k
-        return None
+        return self._loops[verb]
+
+    @cached_property
+    def _leaving(self) -> tuple[tuple[int, ...], ...]:
+        """:meth:`leaving` of every verb (a crowd's queues ask hundreds of times a frame)."""
+        return tuple(tuple(k for k, t in enumerate(self.transitions) if t.source == v) for v in range(len(self.verbs)))
+
+    @cached_property
+    def _loops(self) -> tuple[int | None, ...]:
+        """:meth:`loop` of every verb."""
+        return tuple(next((k for k in ways if self.transitions[k].target == v), None) for v, ways in enumerate(self._leaving))
+
+    @cached_property
+    def _odds(self) -> tuple[np.ndarray, ...]:
+        """Per verb, the likelihoods of :meth:`leaving`'s transitions as probabilities (what :meth:`draw` draws by)."""
+        out = []
+        for ways in self._leaving:
+            p = np.array([self.transitions[k].likelihood for k in ways])
+            out.append(p / p.sum() if len(ways) else p)
+        return tuple(out)
 
     def point(self, values: dict[str, float] | Sequence[float] | np.ndarray | None = None) -> np.ndarray:
         """A graph adverb point ``(A,)``: the defaults, with ``values`` (by name, or all in order) put in."""
@@ -339,9 +355,8 @@ class Graph:
 
     def draw(self, verb: int, rng: np.random.Generator) -> int:
         """A transition out of ``verb`` drawn by likelihood (what plays next when nothing was asked for)."""
-        ways = self.leaving(verb)
-        p = np.array([self.transitions[k].likelihood for k in ways])
-        return ways[int(rng.choice(len(ways), p=p / p.sum()))] if len(ways) > 1 else ways[0]
+        ways = self._leaving[verb]
+        return ways[int(rng.choice(len(ways), p=self._odds[verb]))] if len(ways) > 1 else ways[0]
 
     def describe(self) -> dict:
         """What the graph holds, as plain data (for ``adverbs graph --describe``)."""
