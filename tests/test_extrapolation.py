@@ -311,7 +311,7 @@ def test_locomotion_past_its_corners_still_extrapolates_its_legs(verbs, run_verb
             continue
         feet, s = effector_joints(verb), verb.adverb_names.index("speed")
 
-        def stride(g):
+        def stride(g, feet=feet):
             return float(np.linalg.norm(g[:, feet[0], [0, 2]] - g[:, feet[1], [0, 2]], axis=-1).max())
 
         longest = max(stride(_frames(verb, p)[0]) for p in verb.points)
