@@ -166,14 +166,22 @@ def test_other_methods_are_warned_and_refused_as_ours_is(tmp_path):
 
 
 def test_a_foot_that_never_comes_down_is_reported_from_the_frames(verbs):
-    """Far past its examples the reach's legs extrapolate off the ground: its right toe never comes within 5 cm of its
-    contact height though the planter's own state says nothing is wrong (no held phase drifts). The report measures
-    the frames: it names that foot; at the examples' mean no foot is named; and frames raised off the floor behind the
-    planter's back (the report's state unchanged) are seen, so the number cannot be computed from state alone."""
+    """Far past its examples the reach extrapolated the paper's way (every DOF following its adverbs: unmeasured, no
+    goal chain) lifts its legs off the ground: its right toe never comes within 5 cm of its contact height though the
+    planter's own state says nothing is wrong (no held phase drifts). The report measures the frames: it names that
+    foot; at the examples' mean no foot is named; and frames raised off the floor behind the planter's back (the
+    report's state unchanged) are seen, so the number cannot be computed from state alone. (The shipped reach holds
+    its legs there: see test_past_every_corner_the_reach_stands_and_its_hand_reaches.)"""
+    import dataclasses
+
     from adverbs.feet.measures import measure_feet
     from adverbs.feet.planter import LIFTED
+    from adverbs.verb.tables import Adverb
 
-    verb, _ = verbs["bandai_reach"]
+    reach, _ = verbs["bandai_reach"]
+    paper = tuple(Adverb(a.name, a.unit) for a in reach.adverbs)
+    verb = dataclasses.replace(reach, adverbs=paper, goal_chain=())
+    assert np.all(verb.follows == 1.0)
     far = verb.point({"hand_x": -0.11, "hand_y": 1.91, "hand_z": 0.33})
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", AdverbsWarning)
@@ -246,3 +254,66 @@ def test_at_every_far_corner_the_feet_are_where_the_report_says(spec):
     _, off = _held_from_frames(verb, planted.replace(translations=raised), report)
     assert off > m.held_height + 0.02  # the frames' own reading sees what a report from state would not
     assert measure_feet(verb, planted.replace(translations=raised), report).held_height >= off - 1e-9  # ours does
+
+
+def _frames(verb, p):
+    """Global joint positions ``(F, J, 3)`` of the motion at ``p``, as synthesized: no planting, no IK."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", AdverbsWarning)
+        clip, k = verb.synthesize(p)
+    return clip.global_positions(), k
+
+
+def test_past_every_corner_the_reach_stands_and_its_hand_reaches(verbs):
+    """25% past every corner of the reach's examples, read off the frames (FK of the synthesized poses, no planting,
+    no IK): each foot's lowest toe stays within 1 cm of the examples' own lowest toes (the paper's extrapolation lifted
+    one 62 cm: its legs followed the hand past the takes) and the hips within 1 cm of the examples' heights (11 cm
+    over), while the hand at the peak goes past every example's hand in the direction asked and within 20 cm of the
+    goal (the highest goals are past this arm's reach)."""
+    from adverbs.feet.planter import effector_joints
+
+    verb, _ = verbs["bandai_reach"]
+    assert 0 < (verb.follows == 0).sum() < verb.num_dofs and verb.weight_columns == 2 * len(verb.examples)
+    feet, body, hand = effector_joints(verb), verb.encoding.body_root, verb.goal.joint
+    toes, hips, hands = [], [], []
+    for p in verb.points:
+        g, k = _frames(verb, p)
+        toes.append(g[:, feet, 1].min(axis=0))
+        hips.append(g[:, body, 1])
+        hands.append(g[round(k[verb.goal.keytime] * verb.fps), hand])
+    toes, hands = np.array(toes), np.array(hands)
+    low, high = min(h.min() for h in hips), max(h.max() for h in hips)
+    centre = (verb.points.min(axis=0) + verb.points.max(axis=0)) / 2
+    failures = []
+    for p in _corners(verb):
+        g, k = _frames(verb, p)
+        toe = g[:, feet, 1].min(axis=0)
+        hip = g[:, body, 1]
+        at = g[round(k[verb.goal.keytime] * verb.fps), hand]
+        out = (p - centre) / np.linalg.norm(p - centre)
+        if np.any(toe < toes.min(axis=0) - 0.01) or np.any(toe > toes.max(axis=0) + 0.01):
+            failures.append(f"{np.round(p, 3)}: lowest toes {np.round(toe * 100, 1)} cm")
+        if hip.min() < low - 0.01 or hip.max() > high + 0.01:
+            failures.append(f"{np.round(p, 3)}: hips {hip.min():.3f} .. {hip.max():.3f} m, the examples' {low:.3f} .. {high:.3f}")
+        if (at - centre) @ out <= ((hands - centre) @ out).max() or np.linalg.norm(at - p) > 0.2:
+            failures.append(f"{np.round(p, 3)}: hand at {np.round(at, 3)}")
+    assert not failures, "\n".join(failures)
+
+
+def test_locomotion_past_its_corners_still_extrapolates_its_legs(verbs, run_verbs):
+    """Walks and runs hold nothing past their examples (their speed and turn are read off the root's path, which the
+    legs make): the paper's extrapolation, and the stride past the fastest examples longer than any example's."""
+    from adverbs.feet.planter import effector_joints
+
+    for verb in [verbs["cmu_walk"][0], verbs["bandai_styled_walk"][0], *(v for v, _ in run_verbs.values())]:
+        assert np.all(verb.follows == 1.0) and verb.weight_columns == len(verb.examples), verb.name
+        if "speed" not in verb.adverb_names:
+            continue
+        feet, s = effector_joints(verb), verb.adverb_names.index("speed")
+
+        def stride(g, feet=feet):
+            return float(np.linalg.norm(g[:, feet[0], [0, 2]] - g[:, feet[1], [0, 2]], axis=-1).max())
+
+        longest = max(stride(_frames(verb, p)[0]) for p in verb.points)
+        fast = [p for p in _corners(verb) if p[s] > verb.points[:, s].max()]
+        assert max(stride(_frames(verb, p)[0]) for p in fast) > longest, verb.name

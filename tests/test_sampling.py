@@ -208,7 +208,7 @@ def test_compiled_weights_equal_the_interpolator(verbs):
         points = _spread(verb, np.random.default_rng(5), 50)
         state = verb.state(50)
         state.update(verb, points)
-        np.testing.assert_allclose(state.weights, verb.weights(points), rtol=0, atol=1e-12)
+        np.testing.assert_allclose(state.weights, verb.blend(points), rtol=0, atol=1e-12)
         np.testing.assert_allclose(state.keytimes, verb.keytimes(points), rtol=0, atol=1e-12)
         seam = state.weights @ verb.seam_table if verb.cyclic else 0.0  # one-shot verbs never cross a seam
         np.testing.assert_allclose(state.seam, seam + 0 * state.seam, rtol=0, atol=1e-12)

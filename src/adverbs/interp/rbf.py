@@ -379,3 +379,24 @@ class AdverbInterpolator:
         shape = r.shape[1:]
         out = radial @ r.reshape(r.shape[0], -1) + _linear_basis(q) @ a.reshape(a.shape[0], -1)
         return out.reshape(q.shape[:-1] + shape)
+
+
+def hull_nearest_reference(points: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, float]:
+    """The point of the convex hull of ``points (E, A)`` nearest ``q (A,)``, and its distance: the NumPy reference of
+    the sampling kernel's Wolfe algorithm (``hull_nearest``), here a non-negative least squares on the barycentric
+    weights (their sum held to 1 by a heavy row), then the nearest point of the affine hull of the examples it keeps,
+    solved exactly."""
+    from scipy.optimize import nnls
+
+    points, q = np.asarray(points, dtype=float), np.asarray(q, dtype=float)
+    heavy = 1e4 * max(1.0, float(np.abs(points - q).max()))
+    lam, _ = nnls(np.vstack([points.T, np.full(len(points), heavy)]), np.r_[q, heavy])
+    keep = np.flatnonzero(lam > 1e-12 * lam.sum())
+    y = points[keep] - q
+    kkt = np.block([[y @ y.T, np.ones((len(keep), 1))], [np.ones((1, len(keep))), np.zeros((1, 1))]])
+    mu = np.linalg.lstsq(kkt, np.r_[np.zeros(len(keep)), 1.0], rcond=None)[0][:-1]
+    if np.all(mu >= 0):
+        h = mu @ points[keep]
+    else:
+        h = lam @ points / lam.sum()
+    return h, float(np.linalg.norm(h - q))

@@ -190,7 +190,7 @@ class FramePass:
         state, graph = self.state, self.graph
         c = state.creatures
         widths = [
-            [len(v.examples) for v in graph.verbs],
+            [v.weight_columns for v in graph.verbs],
             [v.keytimes_table.shape[1] for v in graph.verbs],
             [v.num_dofs for v in graph.verbs],
             [0 if v.goal is None else len(v.goal.columns) for v in graph.verbs],

@@ -179,6 +179,176 @@ def goal_weight(window, t):  # pragma: no cover
     return s * s * (3.0 - 2.0 * s)
 
 
+HULL_TOL = 1e-9  # ranges of the examples: a point nearer the examples' hull than this is inside it (nothing held)
+HULL_STEPS = 200  # Wolfe's steps at most (a point in 3 adverbs takes a handful)
+
+
+@njit(cache=True, inline="always")
+def _weights_at(q, example_q, inv_alpha, radial_from_values, lin_pinv, radial, w):  # pragma: no cover
+    """Cardinal weights ``w (E,)`` at a scaled adverb point ``q (A,)``: ``R(q) M⁻¹ (I − A A⁺) + A(q) A⁺``."""
+    ne, na = example_q.shape
+    for e in range(ne):
+        s = 0.0
+        for a in range(na):
+            diff = example_q[e, a] - q[a]
+            s += diff * diff
+        r = math.sqrt(s) * inv_alpha[e]
+        x = max(2.0 - r, 0.0)
+        y = max(1.0 - r, 0.0)
+        radial[e] = (x * x * x - 4.0 * (y * y * y)) * (1.0 / 6.0)
+    for e in range(ne):
+        s = lin_pinv[0, e]
+        for a in range(na):
+            s += q[a] * lin_pinv[a + 1, e]
+        w[e] = s
+    for j in range(ne):
+        rj = radial[j]
+        if rj != 0.0:
+            for e in range(ne):
+                w[e] += rj * radial_from_values[j, e]
+
+
+@njit(cache=True)
+def _affine_nearest(y, corral, n, mu, m, rhs):  # pragma: no cover
+    """Barycentric coordinates ``mu[:n]`` of the point of the affine hull of ``y[corral[:n]]`` nearest the origin
+    (``[G 1; 1ᵀ 0] [mu; ν] = [0; 1]``, ``G`` their Gram matrix, by Gaussian elimination with partial pivoting);
+    False when the corral is affinely dependent."""
+    na = y.shape[1]
+    k = n + 1
+    for i in range(n):
+        for j in range(n):
+            s = 0.0
+            for a in range(na):
+                s += y[corral[i], a] * y[corral[j], a]
+            m[i, j] = s
+        m[i, n] = 1.0
+        m[n, i] = 1.0
+        rhs[i] = 0.0
+    m[n, n] = 0.0
+    rhs[n] = 1.0
+    scale = 0.0
+    for i in range(n):
+        scale = max(scale, m[i, i])
+    scale = max(scale, 1.0)
+    for col in range(k):
+        piv = col
+        for i in range(col + 1, k):
+            if abs(m[i, col]) > abs(m[piv, col]):
+                piv = i
+        if abs(m[piv, col]) <= 1e-13 * scale:
+            return False
+        if piv != col:
+            for j in range(k):
+                m[col, j], m[piv, j] = m[piv, j], m[col, j]
+            rhs[col], rhs[piv] = rhs[piv], rhs[col]
+        for i in range(col + 1, k):
+            f = m[i, col] / m[col, col]
+            if f != 0.0:
+                for j in range(col, k):
+                    m[i, j] -= f * m[col, j]
+                rhs[i] -= f * rhs[col]
+    for i in range(k - 1, -1, -1):
+        s = rhs[i]
+        for j in range(i + 1, k):
+            s -= m[i, j] * rhs[j]
+        rhs[i] = s / m[i, i]
+    for i in range(n):
+        mu[i] = rhs[i]
+    return True
+
+
+@njit(cache=True)
+def hull_nearest(example_q, q, out):  # pragma: no cover
+    """The point ``out (A,)`` of the examples' convex hull (scaled points ``example_q (E, A)``) nearest ``q (A,)``;
+    returns its squared distance. Wolfe's minimum-norm-point algorithm on ``y_i = x_i − q`` (1976): a corral of
+    at most A + 1 examples, grown by the example farthest along −x, shrunk while the affine minimum leaves it."""
+    ne, na = example_q.shape
+    y = np.empty((ne, na))
+    best, i0 = np.inf, 0
+    for e in range(ne):
+        s = 0.0
+        for a in range(na):
+            y[e, a] = example_q[e, a] - q[a]
+            s += y[e, a] * y[e, a]
+        if s < best:
+            best, i0 = s, e
+    big = 0.0
+    for e in range(ne):
+        s = 0.0
+        for a in range(na):
+            s += y[e, a] * y[e, a]
+        big = max(big, s)
+    cap = na + 1
+    corral = np.empty(cap, np.int64)
+    lam = np.empty(cap)
+    mu = np.empty(cap)
+    m = np.empty((cap + 1, cap + 1))
+    rhs = np.empty(cap + 1)
+    x = np.empty(na)
+    corral[0], lam[0], n = i0, 1.0, 1
+    for a in range(na):
+        x[a] = y[i0, a]
+    for _ in range(HULL_STEPS):
+        xx = 0.0
+        for a in range(na):
+            xx += x[a] * x[a]
+        if xx == 0.0:
+            break
+        j, low = -1, np.inf
+        for e in range(ne):
+            s = 0.0
+            for a in range(na):
+                s += x[a] * y[e, a]
+            if s < low:
+                low, j = s, e
+        if xx - low <= 1e-12 * big or n == cap:
+            break
+        known = False
+        for i in range(n):
+            known = known or corral[i] == j
+        if known:
+            break
+        corral[n], lam[n] = j, 0.0
+        n += 1
+        for _minor in range(cap + 1):
+            if not _affine_nearest(y, corral, n, mu, m, rhs):
+                n -= 1  # the newcomer is affinely dependent: drop it and stop here
+                break
+            inside = True
+            for i in range(n):
+                inside = inside and mu[i] > 0.0
+            if inside:
+                for i in range(n):
+                    lam[i] = mu[i]
+                break
+            theta = 1.0
+            for i in range(n):
+                if mu[i] <= 0.0 and lam[i] - mu[i] > 0.0:
+                    theta = min(theta, lam[i] / (lam[i] - mu[i]))
+            k = 0
+            for i in range(n):
+                v = (1.0 - theta) * lam[i] + theta * mu[i]
+                if v > 1e-15:
+                    corral[k], lam[k] = corral[i], v
+                    k += 1
+            if k == 0:
+                corral[0], lam[0], k = corral[0], 1.0, 1
+            n = k
+        total = 0.0
+        for i in range(n):
+            total += lam[i]
+        for a in range(na):
+            s = 0.0
+            for i in range(n):
+                s += lam[i] * y[corral[i], a]
+            x[a] = s / total
+    d = 0.0
+    for a in range(na):
+        out[a] = q[a] + x[a]
+        d += x[a] * x[a]
+    return d
+
+
 @njit(cache=True)
 def refresh_batch(
     points, rows, centre, inv_scale, example_q, inv_alpha, radial_from_values, lin_pinv, log_intervals,
@@ -190,36 +360,32 @@ def refresh_batch(
     log intervals ``K_{m+1} − K_m = exp(w · log ΔK)`` (each log interval clipped to ``interval_bounds (2, N-1)``)
     and the seam ``w · (d(1) − d(0))``; written into
     ``weights (C, E)``, ``keytimes (C, N)`` and ``seam (C, D)`` at those rows.
+
+    A verb that holds DOFs past its examples (``Verb.follows``) has ``weights (C, 2E)``: after ``w(p)``, the held
+    part ``w(h) − w(p)``, ``h`` the point of the examples' hull nearest ``p`` (zeros inside the hull); its
+    ``seam_table`` has 2E rows to match (the second E scaled by how much each DOF is held, as its ``segments``).
     """
     ne, na = example_q.shape
+    nw = weights.shape[1]
     nk = log_intervals.shape[1] + 1
     nd = seam_table.shape[1]
     q = np.empty(na)
+    h = np.empty(na)
     radial = np.empty(ne)
+    held = np.empty(ne)
     for i in range(rows.shape[0]):
         c = rows[i]
         for a in range(na):
             q[a] = (points[c, a] - centre[a]) * inv_scale[a]
-        for e in range(ne):
-            s = 0.0
-            for a in range(na):
-                diff = example_q[e, a] - q[a]
-                s += diff * diff
-            r = math.sqrt(s) * inv_alpha[e]
-            x = max(2.0 - r, 0.0)
-            y = max(1.0 - r, 0.0)
-            radial[e] = (x * x * x - 4.0 * (y * y * y)) * (1.0 / 6.0)
         w = weights[c]
-        for e in range(ne):
-            s = lin_pinv[0, e]
-            for a in range(na):
-                s += q[a] * lin_pinv[a + 1, e]
-            w[e] = s
-        for j in range(ne):
-            rj = radial[j]
-            if rj != 0.0:
+        _weights_at(q, example_q, inv_alpha, radial_from_values, lin_pinv, radial, w)
+        if nw > ne:
+            for e in range(ne, nw):
+                w[e] = 0.0
+            if hull_nearest(example_q, q, h) > HULL_TOL * HULL_TOL:
+                _weights_at(h, example_q, inv_alpha, radial_from_values, lin_pinv, radial, held)
                 for e in range(ne):
-                    w[e] += rj * radial_from_values[j, e]
+                    w[ne + e] = held[e] - w[e]
         keytimes[c, 0] = 0.0
         for m in range(nk - 1):
             s = 0.0
@@ -229,10 +395,11 @@ def refresh_batch(
             keytimes[c, m + 1] = keytimes[c, m] + math.exp(s)
         for d in range(nd):
             seam[c, d] = 0.0
-        for e in range(ne):
+        for e in range(nw):
             we = w[e]
-            for d in range(nd):
-                seam[c, d] += we * seam_table[e, d]
+            if we != 0.0:
+                for d in range(nd):
+                    seam[c, d] += we * seam_table[e, d]
 
 
 @njit(cache=True)

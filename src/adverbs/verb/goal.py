@@ -203,9 +203,11 @@ def misses(verb) -> np.ndarray:
     example is reproduced as captured.
     """
     e = len(verb.examples)
-    model = _Model(verb, verb.goal, np.eye(e), verb.keytimes_table)
+    model = _Model(verb, verb.goal, np.eye(e, verb.weight_columns), verb.keytimes_table)
     at, _ = model.reached(np.arange(e), np.zeros((e, len(verb.goal.columns))))
-    return at - verb.points[:, list(verb.goal.adverbs)]
+    own = at - verb.points[:, list(verb.goal.adverbs)]
+    # A state's held part (``w(h) − w(p)``, see Verb.follows) blends no miss: the misses are the examples' own.
+    return np.concatenate([own, np.zeros((verb.weight_columns - e, own.shape[1]))])
 
 
 class _Model:

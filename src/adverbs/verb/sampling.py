@@ -37,8 +37,11 @@ import numpy as np
 from ..compiled import one_blas_thread
 from ..errors import AdverbsError
 from ..interp import bspline, timewarp
+from ..interp.rbf import hull_nearest_reference
 from . import goal as goals
-from ._sampling_kernel import CYCLE_EPS, CYCLIC, GENERIC, GROUPED, ONE_SHOT, VELOCITIES, pose_one, refresh_batch, sample_batch
+from ._sampling_kernel import (
+    CYCLE_EPS, CYCLIC, GENERIC, GROUPED, HULL_TOL, ONE_SHOT, VELOCITIES, pose_one, refresh_batch, sample_batch,
+)  # fmt: skip
 
 if TYPE_CHECKING:
     from .tables import Verb
@@ -71,8 +74,9 @@ class SamplingState:
         The adverb point of each creature that the cached rows belong to.
     cached : (C,) bool
         Which rows hold a computed cache (False until a creature is first sampled).
-    weights : (C, E)
-        Cardinal weights ``w(p)`` at ``points``.
+    weights : (C, E) or (C, 2E)
+        Cardinal weights ``w(p)`` at ``points``; for a verb that holds DOFs past its examples, then ``w(h) − w(p)``,
+        ``h`` the point of the examples' hull nearest (zeros inside it: see ``Verb.follows``).
     keytimes : (C, N)
         Keytimes ``K(p)``, seconds.
     seam : (C, D)
@@ -103,7 +107,7 @@ class SamplingState:
         if isinstance(creatures, bool) or not isinstance(creatures, int | np.integer) or creatures < 1:
             raise AdverbsError(f"creatures must be a whole number ≥ 1, got {creatures!r}")
         c = int(creatures)
-        e, a = verb.points.shape
+        e, a = verb.weight_columns, verb.points.shape[1]
         if root is None:
             start = np.zeros((c, 3))
         else:
@@ -330,11 +334,11 @@ def dofs(verb: Verb, p: np.ndarray, t: np.ndarray) -> np.ndarray:
         raise AdverbsError(f"dofs: {len(p)} adverb points but {len(t)} times")
     out = np.empty((len(t), verb.num_dofs))
     e = len(verb.examples)
-    no_keytimes, no_seam = np.zeros((e, 0)), np.zeros((e, 0))  # generic times: no warp, no cycles
+    no_keytimes, no_seam = np.zeros((e, 0)), np.zeros((verb.weight_columns, 0))  # generic times: no warp, no cycles
     with one_blas_thread():
         for a in range(0, len(t), CHUNK):
             rows = np.arange(min(CHUNK, len(t) - a))
-            w = np.empty((len(rows), e))
+            w = np.empty((len(rows), verb.weight_columns))
             refresh_batch(
                 p[a : a + CHUNK], rows, *verb.interpolator.kernel_tables, no_keytimes, np.zeros((2, 0)), no_seam,
                 w, np.empty((len(rows), 1)), np.empty((len(rows), 0)),
@@ -363,7 +367,7 @@ def sample_reference(verb: Verb, points: np.ndarray, clocks: np.ndarray) -> np.n
     """What :func:`sample` computes, written out plainly, one creature at a time; ``(C, D)``.
 
     Every control point and log keytime interval by eq. 3 with explicit linear and radial
-    coefficients, the cycle and the time warp with :mod:`~adverbs.interp.timewarp`, the spline with
+    coefficients (outside the examples' hull, the DOFs a verb holds taken at the hull's nearest point), the cycle and the time warp with :mod:`~adverbs.interp.timewarp`, the spline with
     :func:`~adverbs.interp.bspline.evaluate`, the seam from the spline's end values, the goal's offset from
     :func:`~adverbs.verb.goal.solve`'s NumPy reference (on these keytimes) weighted by :func:`~adverbs.verb.goal.weight`.
     """
@@ -373,7 +377,7 @@ def sample_reference(verb: Verb, points: np.ndarray, clocks: np.ndarray) -> np.n
     points = np.asarray(points, dtype=float).reshape(-1, len(verb.adverbs))
     out = []
     for p, clock in zip(points, np.asarray(clocks, dtype=float).reshape(-1)):
-        cp = ip.evaluate(p, coef)
+        cp = _held_control_points(verb, p, coef)
         k = np.concatenate([[0.0], np.cumsum(np.exp(np.clip(ip.evaluate(p, logk), *verb.interval_bounds)))])
         end = k[-1]
         cycle = max(math.ceil(clock / end - CYCLE_EPS) - 1, 0) if verb.cyclic else 0
@@ -381,7 +385,7 @@ def sample_reference(verb: Verb, points: np.ndarray, clocks: np.ndarray) -> np.n
         t = timewarp.generic_time(np.array(local), k, verb.generic_keytimes)
         d = bspline.evaluate(cp, t)
         if verb.goal is not None:
-            offset = goals.solve(verb, verb.goal, ip.weights(p)[None], k[None], p[None], compiled=False)[0]
+            offset = goals.solve(verb, verb.goal, verb.blend(p)[None], k[None], p[None], compiled=False)[0]
             d[verb.goal.columns] += goals.weight(verb.goal, t) * offset
         if cycle > 0:
             v0, _, v1, _ = bspline.ends(cp)
@@ -399,5 +403,19 @@ def dofs_reference(verb: Verb, p: np.ndarray, t: np.ndarray) -> np.ndarray:
     coef = ip.fit(verb.coefficients)
     out = []
     for pi, ti in zip(np.asarray(p, dtype=float).reshape(-1, len(verb.adverbs)), np.asarray(t).reshape(-1)):
-        out.append(bspline.evaluate(ip.evaluate(pi, coef), np.array(ti)))
+        out.append(bspline.evaluate(_held_control_points(verb, pi, coef), np.array(ti)))
     return np.stack(out)
+
+
+def _held_control_points(verb: Verb, p: np.ndarray, coef: np.ndarray) -> np.ndarray:
+    """Control points ``(NumCP, D)`` at ``p`` by eq. 3 (``coef`` the interpolator's fit of the coefficients), each DOF
+    a verb holds past its examples (``1 − follows``) taken at the point ``h`` of the examples' hull nearest ``p``:
+    ``v(p) + (1 − follows) (v(h) − v(p))``."""
+    ip = verb.interpolator
+    cp = ip.evaluate(p, coef)
+    if verb.weight_columns == len(verb.examples):
+        return cp
+    h, dist = hull_nearest_reference(ip.kernel_tables[2], (p - ip.centre) / ip.scale)
+    if dist <= HULL_TOL:
+        return cp
+    return cp + (1.0 - verb.follows) * (ip.evaluate(h * ip.scale + ip.centre, coef) - cp)

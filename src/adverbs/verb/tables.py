@@ -40,6 +40,8 @@ from . import sampling, synthesis
 from .constraints import Constraint, Hold, check_constraint, default_holds
 from . import goal as goals
 from .goal import Goal
+from ._sampling_kernel import HULL_TOL
+from ..interp.rbf import hull_nearest_reference
 
 
 @dataclass(frozen=True)
@@ -127,6 +129,13 @@ class Verb:
     basis's 1/6 folded in: what the sampling kernel reads), ``seam_table (E, D)`` (each example's end value
     minus its start value, ``d(1) − d(0)``: the jump hidden where a cycle follows itself) and ``goal``
     (the :class:`~adverbs.verb.goal.Goal` of ``goal_chain``, or None).
+
+    Past the examples (see :func:`follows`): ``follows (D,)`` says how much each DOF follows the adverbs outside the
+    examples' convex hull, 1 (the paper's extrapolation) or 0 (held at the nearest point of the hull). A verb that
+    holds some DOF samples with ``2E`` weights per creature, ``w(p)`` then ``w(h) − w(p)`` (``h`` the hull's point
+    nearest ``p``; zeros inside the hull), and its ``segments (NumCP, 2E, D)`` and ``seam_table (2E, D)`` repeat the
+    examples' with each DOF scaled by ``1 − follows``: one blend, ``v(p) + (1 − follows) (v(h) − v(p))``.
+    ``weight_columns`` is ``E`` or ``2E``.
     """
 
     name: str
@@ -153,6 +162,7 @@ class Verb:
     interval_bounds: np.ndarray = field(init=False, repr=False)
     segments: np.ndarray = field(init=False, repr=False)
     seam_table: np.ndarray = field(init=False, repr=False)
+    follows: np.ndarray = field(init=False, repr=False)
     goal: Goal | None = field(init=False, repr=False)
     goal_misses: np.ndarray | None = field(init=False, repr=False)
 
@@ -217,9 +227,16 @@ class Verb:
         else:
             bounds = np.repeat([[-np.inf], [np.inf]], n - 1, axis=1)
         put(self, "interval_bounds", _frozen(bounds))
-        put(self, "segments", _frozen(coef.transpose(1, 0, 2) / 6.0))
+        follow = follows(self.adverbs, enc)
+        put(self, "follows", _frozen(follow))
+        segments = coef.transpose(1, 0, 2) / 6.0
         v0, _, v1, _ = bspline.ends(coef.transpose(1, 0, 2))
-        put(self, "seam_table", _frozen(v1 - v0))
+        seam = v1 - v0
+        if (follow < 1.0).any():  # held DOFs: the examples again, scaled by how much each DOF is held
+            segments = np.concatenate([segments, segments * (1.0 - follow)], axis=1)
+            seam = np.concatenate([seam, seam * (1.0 - follow)], axis=0)
+        put(self, "segments", _frozen(segments))
+        put(self, "seam_table", _frozen(seam))
         put(self, "goal_chain", tuple(self.goal_chain))
         goal = None
         if self.goal_chain:
@@ -253,6 +270,12 @@ class Verb:
     @property
     def num_dofs(self) -> int:
         return self.encoding.num_dofs
+
+    @property
+    def weight_columns(self) -> int:
+        """How many blend weights a creature's sampling state keeps: ``E``, or ``2E`` when the verb holds DOFs past
+        its examples (see :func:`follows`)."""
+        return self.segments.shape[1]
 
     @property
     def adverb_names(self) -> tuple[str, ...]:
@@ -326,9 +349,25 @@ class Verb:
         """Cardinal weights ``(..., E)`` at adverb points ``(..., A)``."""
         return self.interpolator.weights(p)
 
+    def blend(self, p: np.ndarray) -> np.ndarray:
+        """The weights a sampling state keeps for adverb points ``(..., A)``, ``(..., weight_columns)``, by NumPy:
+        :meth:`weights`, then, for a verb that holds DOFs past its examples, ``w(h) − w(p)`` at the point ``h`` of the
+        examples' hull nearest ``p`` (zeros inside it; :func:`~adverbs.interp.rbf.hull_nearest_reference`)."""
+        w = self.weights(p)
+        if self.weight_columns == w.shape[-1]:
+            return w
+        ip = self.interpolator
+        flat = np.asarray(p, dtype=float).reshape(-1, len(self.adverbs))
+        held = np.zeros((len(flat), w.shape[-1]))
+        for i, q in enumerate((flat - ip.centre) / ip.scale):
+            h, dist = hull_nearest_reference(ip.kernel_tables[2], q)
+            if dist > HULL_TOL:
+                held[i] = ip.weights(h * ip.scale + ip.centre) - w.reshape(-1, w.shape[-1])[i]
+        return np.concatenate([w, held.reshape(w.shape)], axis=-1)
+
     def keytimes(self, p: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
         """Keytimes ``(..., N)`` at ``p``: strictly increasing from 0 (see the module's keytime policy)."""
-        w = self.weights(p) if weights is None else weights
+        w = self.weights(p) if weights is None else np.asarray(weights)[..., : len(self.examples)]
         steps = np.exp(np.clip(w @ self.log_intervals, *self.interval_bounds))
         bad = ~((steps > 0) & np.isfinite(steps)).all(axis=-1)
         if bad.any():  # so far out that an interval underflows to 0 s or overflows
@@ -344,7 +383,8 @@ class Verb:
         """
         # einsum's own loop, not BLAS: a creature's times are then the same bits alone or in a crowd (BLAS sums a
         # product of one row otherwise than of many, and a dataset's clip must not depend on its neighbours)
-        spans = np.einsum("...e,elk->...lk", np.asarray(weights, dtype=float), self.hold_table)
+        w = np.asarray(weights, dtype=float)[..., : len(self.examples)]  # a state's held part moves no foot's timing
+        spans = np.einsum("...e,elk->...lk", w, self.hold_table)
         opens = np.array([h.open for h in self.holds])
         close = np.clip(spans[..., 2], 1e-6, 1.0 if self.cyclic else None)
         if not self.cyclic:
@@ -355,9 +395,10 @@ class Verb:
         return opens[:, None] + np.stack([flat, heel, close], axis=-1)
 
     def control_points(self, p: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
-        """All control points ``(..., NumCP, D)`` at ``p`` (eq. 3); ``weights`` if already known."""
-        w = self.weights(p) if weights is None else weights
-        return np.tensordot(w, self.coefficients, axes=(-1, 0))
+        """All control points ``(..., NumCP, D)`` at ``p`` (eq. 3, with DOFs held past the examples' hull as sampled);
+        ``weights`` (:meth:`weights` or :meth:`blend`) if already known."""
+        w = self.blend(p) if weights is None else np.asarray(weights, dtype=float)
+        return np.tensordot(w, self.segments.transpose(1, 0, 2)[: w.shape[-1]] * 6.0, axes=(-1, 0))
 
     def playing(
         self, control_points: np.ndarray, keytimes: np.ndarray, p: np.ndarray | None = None, name: str = ""
@@ -413,3 +454,32 @@ class Verb:
     ) -> tuple[Clip, np.ndarray]:
         """A clip at ``p`` and its keytimes ``(N,)``; see :func:`~adverbs.verb.synthesis.synthesize`."""
         return synthesis.synthesize(self, p, duration, cycles, fps, start)
+
+
+def follows(adverbs: Sequence[Adverb], encoding: DofEncoding) -> np.ndarray:
+    """How much each DOF ``(D,)`` follows the adverbs past the examples: 1 for a DOF an adverb asks for, 0 for one held
+    at the examples' hull.
+
+    An adverb measured as a joint's position (``joint_position``: the reach's hand) asks for the rotations of the
+    joints between the body root and that joint, the chain that moves it; one read off the root's path (speed, turn)
+    or given by hand (a mood, a style) asks for the whole body. A DOF no adverb asks for — the reach's legs, root,
+    other arm and head — still varies across the examples with the adverbs (the takes' styles move the hand and the
+    stance together: the reach's leg DOFs fit the hand's position with R² 0.4-0.8, more than a walk's legs fit its
+    speed and turn, 0.2-0.5), but nothing asks it to go on past them: there it is held where the examples' hull
+    leaves it.
+    """
+    d = encoding.num_dofs
+    skel = encoding.skeleton
+    asked: set[int] = set()
+    for a in adverbs:
+        m = a.measure or {}
+        if m.get("kind") != "joint_position" or m.get("joint") not in skel.names:
+            return np.ones(d)
+        j = skel.parents[skel.names.index(m["joint"])]
+        while j >= 0 and j != encoding.body_root:
+            asked.add(int(j))
+            j = skel.parents[j]
+        if j < 0:  # the joint is not below the body root: the whole body moves it
+            return np.ones(d)
+    prefixes = tuple(f"{skel.names[j]}." for j in asked)
+    return np.array([1.0 if n.startswith(prefixes) else 0.0 for n in encoding.names])
