@@ -68,7 +68,7 @@ def tables(segments, keytimes, generic, keytime, grid, key_cols, start_cols):  #
 def solve_rows(
     lo, hi, velocities, key_pose, start_pose, key_cols, start_cols, ncp, nd, weights, keytimes, generic, grid, keytime,
     points, misses, path_parent, rot_col, trans_col, reference, base, chain, body, parent_inv, parent_pos, has_parent,
-    lateral, axes, adverbs, mu, lam0, iterations, tolerance, settled, longest, out, steps_taken,
+    lateral, axes, adverbs, mu, lam0, iterations, tolerance, settled, longest, bound, out, steps_taken,
 ):  # pragma: no cover  # fmt: skip
     """Offsets ``out[i] (K,)`` on the goal chain of the rows ``lo ≤ i < hi``, and how many steps each took
     (``steps_taken[i]``), by Levenberg–Marquardt from zero; zero for a row whose keytimes or weights are not finite,
@@ -86,7 +86,7 @@ def solve_rows(
     body                    the body root's place in the path; ``parent_inv``, ``parent_pos``, ``has_parent``: the
                             fixed frame it is decoded below (the encoding's ``above_body``); ``lateral (3,)`` its hips' axis
     axes (M,), adverbs (M,) the measured coordinates (0-2) and the adverbs asking for them
-    mu, lam0, iterations, tolerance, settled, longest   the solve's constants (see :mod:`adverbs.verb.goal`)
+    mu, lam0, iterations, tolerance, settled, longest, bound   the solve's constants (see :mod:`adverbs.verb.goal`)
     """
     nv, ne, _ = velocities.shape
     p_count = path_parent.shape[0]
@@ -229,6 +229,12 @@ def solve_rows(
                 step[k] = s / damp
             for k in range(k_count):
                 trial[k] = delta[k] + step[k]
+            for b in range(k_count // 3):  # each joint's offset no longer than bound (goal._bounded)
+                x, y, z = trial[3 * b], trial[3 * b + 1], trial[3 * b + 2]
+                size = math.sqrt(x * x + y * y + z * z)
+                if size > bound:
+                    for a in range(3):
+                        trial[3 * b + a] = trial[3 * b + a] * (bound / size)
             _reached(pose, trial, first, path_parent, rot_col, reference, chain, lrot_trial, ltrans, grot_trial,
                      gpos_trial, trig_trial, frame, axes, at)  # fmt: skip
             trial_left, trial_cost = _cost(target, at, trial_res, trial, mu2)

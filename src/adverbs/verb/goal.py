@@ -63,6 +63,7 @@ STEPS = 48  # steps of the root's integration from the start to the goal's keyti
 SETTLED = 1e-10  # a step that lowers the cost by less than this fraction ends the solve (out of reach: a minimum)
 LONGEST = 1e6  # seconds: a point whose motion lasts longer than this (or whose keytimes do not increase) gets no offset
 LAMBDA = 1e-3  # Levenberg–Marquardt's damping at the first step
+BOUND = 2.0  # radians: no chain joint's offset turns it further (a goal far out of reach pulls the arm round otherwise)
 PER_THREAD = 16  # points: fewer than this many per thread are solved on the calling thread alone
 THREADS: int | None = None  # threads a crowd's solve may use (None: numba's count); the answer is the same on any
 AXES = "xyz"
@@ -329,12 +330,13 @@ def _solve(verb, goal: Goal, weights: np.ndarray, keytimes: np.ndarray, points: 
         jt = jac.transpose(0, 2, 1)
         a = jt @ jac + (MU * MU + lam[sel])[:, None, None] * eye
         step = np.linalg.solve(a, (jt @ res[sel, :, None]) - MU * MU * delta[..., None])[..., 0]
-        trial = target[sel] - model.reached(sel, delta + step)[0]
-        trial_cost = np.sum(trial * trial, axis=1) + MU * MU * np.sum((delta + step) ** 2, axis=1)
+        moved = _bounded(delta + step)
+        trial = target[sel] - model.reached(sel, moved)[0]
+        trial_cost = np.sum(trial * trial, axis=1) + MU * MU * np.sum(moved**2, axis=1)
         better = trial_cost < cost[sel]
         settled = better & (cost[sel] - trial_cost <= SETTLED * cost[sel])
         took = sel[better]
-        out[took] = delta[better] + step[better]
+        out[took] = moved[better]
         res[took] = trial[better]
         cost[took] = trial_cost[better]
         lam[took] = np.maximum(lam[took] / 3.0, 1e-9)
@@ -343,6 +345,14 @@ def _solve(verb, goal: Goal, weights: np.ndarray, keytimes: np.ndarray, points: 
         small = np.sqrt(np.sum(step * step, axis=1)) < 1e-12
         active[sel] = (np.sqrt(np.sum(res[sel] ** 2, axis=1)) > TOLERANCE) & ~small & ~settled & (lam[sel] < 1e8)
     return out
+
+
+def _bounded(delta: np.ndarray) -> np.ndarray:
+    """Offsets ``(R, K)`` with each chain joint's (three columns, a rotation vector) no longer than :data:`BOUND`."""
+    turns = delta.reshape(len(delta), -1, 3)
+    x, y, z = turns[..., 0], turns[..., 1], turns[..., 2]
+    size = np.sqrt(x * x + y * y + z * z)[..., None]
+    return np.where(size > BOUND, turns * (BOUND / np.where(size > BOUND, size, 1.0)), turns).reshape(delta.shape)
 
 
 _GRID = np.linspace(0.0, 1.0, STEPS + 1)
@@ -355,7 +365,7 @@ def _solve_compiled(verb, goal: Goal, weights: np.ndarray, keytimes: np.ndarray,
     args = (
         *_tables(verb, goal), np.ascontiguousarray(weights, dtype=float), np.ascontiguousarray(keytimes, dtype=float),
         verb.generic_keytimes, _GRID, goal.keytime, np.ascontiguousarray(points, dtype=float), verb.goal_misses,
-        *goal.path, MU, LAMBDA, ITERATIONS, TOLERANCE, SETTLED, LONGEST, out, np.empty(r, dtype=np.int64),
+        *goal.path, MU, LAMBDA, ITERATIONS, TOLERANCE, SETTLED, LONGEST, BOUND, out, np.empty(r, dtype=np.int64),
     )  # fmt: skip
     _in_threads(_goal_kernel.solve_rows, r, args)
     return out
