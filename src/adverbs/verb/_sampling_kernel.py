@@ -70,14 +70,31 @@ def sample_batch(
         stop = start
         while stop < nq and segs[order[stop]] == seg:
             stop += 1
-        mixed = np.empty((stop - start, 4 * ne))
+        # Only the examples some creature of the group weighs: a verb that holds DOFs past its hull has 2E weights
+        # of which the second E are zero for every point inside it (verb.tables.follows).
+        used = np.zeros(ne, dtype=np.bool_)
+        for i in range(stop - start):
+            c = rows[order[start + i]]
+            for e in range(ne):
+                if weights[c, e] != 0.0:
+                    used[e] = True
+        cols = np.flatnonzero(used)
+        nu = cols.shape[0]
+        mixed = np.empty((stop - start, 4 * nu))
         for i in range(stop - start):
             q = order[start + i]
             c = rows[q]
             for k in range(4):
-                for e in range(ne):
-                    mixed[i, k * ne + e] = blend[q, k] * weights[c, e]
-        block = np.dot(mixed, flat[seg * ne : (seg + 4) * ne])
+                for j in range(nu):
+                    mixed[i, k * nu + j] = blend[q, k] * weights[c, cols[j]]
+        if nu == ne:
+            block = np.dot(mixed, flat[seg * ne : (seg + 4) * ne])
+        else:
+            points = np.empty((4 * nu, nd))
+            for k in range(4):
+                for j in range(nu):
+                    points[k * nu + j] = flat[(seg + k) * ne + cols[j]]
+            block = np.dot(mixed, points)
         for i in range(stop - start):
             q = order[start + i]
             c = rows[q]
