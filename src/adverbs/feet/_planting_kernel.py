@@ -300,6 +300,8 @@ def advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, use_phase
             rot_since[c, i] += d
             rising[c, i] = 0.0 if follows else max(raised, 0.0) * tn
             _shown(c, i, base, fr, turn[c, i], follows, height, tip[i], heel_axis[i], k_, floor, state, shown, wanted, s, qs)
+            # Whether shown and wanted are still what _shown gives at the end (only a rolling ball reads the turn).
+            fresh = m != BALL or turn[c, i] == tn
             if closing:  # let go: what the foot's orientation had still to turn decays from here
                 _mmt(wanted, free_wanted, rel)
                 _mat_to_quat(rel, q)
@@ -316,6 +318,7 @@ def advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, use_phase
                 since[c, i, :] = 0.0
                 settle[c, i] = False
                 mode[c, i] = FREE
+                fresh = False
             # A landing foot rolls down from its heel unless its ball is down already or the heel is lifting.
             has_heel = not follows and not math.isnan(heel_heights[i])
             low = shown[1] - _height(floor, shown[0], shown[2]) - height <= toe_lands
@@ -328,19 +331,26 @@ def advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, use_phase
                 _land(c, i, shown, heel_heights[i], floor, state)
                 mode[c, i] = HEEL
                 _shown(c, i, base, fr, tn, follows, height, tip[i], heel_axis[i], k_, floor, state, shown, wanted, s, qs)
+                fresh = True
                 low = shown[1] - _height(floor, shown[0], shown[2]) - height <= toe_lands
             # The ball is down once the rolling foot brings it to the floor (or, at the latest, at heel-off).
             if (opening and not rocking) or (mode[c, i] == HEEL and (low or tn > 0.0)):
                 _land(c, i, shown, np.nan if follows else height, floor, state)
                 _released_rot(fr, rel_vec[c, i], rot_since[c, i], k_, held_rot[c, i], s[3])
                 mode[c, i] = BALL
+                fresh = False
             if opening:
                 ground[c, i] = np.inf
             if mode[c, i] != FREE:  # the verb's own level: the lowest its foot gets while held
                 ground[c, i] = min(ground[c, i], lift)
             turn[c, i] = tn
             prev_free[c, i] = fp
-            _shown(c, i, base, fr, tn, follows, height, tip[i], heel_axis[i], k_, floor, state, shown_out[c, i], wanted_out[c, i], s, qs)
+            if fresh:  # nothing _shown reads has changed since it ran
+                shown_out[c, i] = shown
+                wanted_out[c, i] = wanted
+            else:
+                _shown(c, i, base, fr, tn, follows, height, tip[i], heel_axis[i], k_, floor, state, shown_out[c, i],
+                       wanted_out[c, i], s, qs)  # fmt: skip
 
 
 # ----- the rest of a frame: _rise, reach, _ride_floor, _tilts, then IK ----------------------------------
