@@ -6,19 +6,18 @@ creature's frame. :func:`hold` puts such a tuple into a :class:`Held` (a numba s
 array in it is replaced), and a kernel given a ``Held`` unboxes one pointer and reads ``.box``: the same arrays,
 written in place as before.
 
-**Borrowed.**
-
-numba counts references to every array it holds (its *meminfo*), and every view it takes — a creature's row, a
+**Borrowed.** numba counts references to every array it holds (its *meminfo*), and every view it takes — a creature's row, a
 verb's columns of a packed table, a slice handed to another compiled function — adds one and takes it away again.
 Each is an atomic instruction. The frame's pass takes several hundred views per creature: a quarter of a
 10,000-creature frame went to those two instructions alone (measured with ``perf``), and on two threads both
 cores count on the same arrays, so each count waits for the other core's cache.
 
-:func:`borrowed` gives back its argument — an array, or a tuple of them nested any way — with each array's
-meminfo (and its parent object) set to null. The arrays are the same memory, shape and strides; only their
-counting is gone, and numba's own ``NRT_incref``/``NRT_decref`` skip a null meminfo. That is safe for what a
-kernel is *given*: its caller holds the arrays for the whole call. Never for an array the kernel allocates itself:
-numba frees that once its own reference is dropped, whatever views of it a borrowed copy still has.
+:func:`borrowed_box` gives back a :class:`Held`'s box — arrays in tuples nested any way — with each array's
+meminfo (and its parent object) set to null, read straight from the structref (``.box`` would count each array in
+and out once more). The arrays are the same memory, shape and strides; only their counting is gone, and numba's own
+``NRT_incref``/``NRT_decref`` skip a null meminfo. That is safe for what a kernel is *given*: the ``Held`` keeps its
+arrays for as long as it lives, and its caller holds it for the whole call. Never for an array the kernel allocates
+itself: numba frees that once its own reference is dropped, whatever views of it a borrowed copy still has.
 """
 
 from __future__ import annotations
@@ -75,10 +74,13 @@ def _strip(context, builder, ty, value):
 
 
 @intrinsic
-def borrowed(typingctx, x):  # pragma: no cover - compiled
-    """``x`` (an array, a tuple of arrays and other values, nested) with its arrays' reference counting removed."""
+def borrowed_box(typingctx, held):  # pragma: no cover - compiled
+    """``borrowed(held.box)`` without counting the box's arrays in and out first (``.box`` would: two atomic
+    instructions per array per call)."""
+    box = held.field_dict["box"]
 
     def codegen(context, builder, signature, args):
-        return _strip(context, builder, signature.args[0], args[0])
+        data = structref._Utils(context, builder, signature.args[0]).get_data_struct(args[0])
+        return _strip(context, builder, box, data.box)
 
-    return x(x), codegen
+    return box(held), codegen

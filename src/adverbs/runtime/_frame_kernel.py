@@ -44,7 +44,7 @@ from numba import njit
 
 from .._scratch_kernel import carve
 from ..graph._blend_kernel import decay_row, keep_feet_row
-from ._borrow_kernel import borrowed
+from ._borrow_kernel import borrowed_box
 from ..graph._time_kernel import _clock, _generic
 from ..motion._pose_kernel import _log, _mul, advance_root_row, blend_row, decode_row, root_velocity_row
 from ..feet._planting_kernel import step as plant_step
@@ -514,7 +514,7 @@ def frame_planted(lo, hi, dt, flags, turns, box, feet):  # pragma: no cover - co
 @njit(cache=True)
 def _frame(lo, hi, dt, flags, turns, held, feet):  # pragma: no cover - compiled
     # Every array given, borrowed: the views the pass takes of them are not counted (see _borrow_kernel).
-    boxed = borrowed(held.box)
+    boxed = borrowed_box(held)
     verbs, transitions, skeleton, caches, state, head, poses, outputs, k_, chunk, n_d, planted_sets = boxed
     new, shown, before = poses[turns[0]], poses[turns[1]], poses[turns[2]]
     buffers = (new[0], new[1], new[2], shown[0], shown[1], before[0], before[1])
@@ -540,7 +540,7 @@ def _plant(lo, hi, outputs, planted, feet, start, k_):  # pragma: no cover - com
     to re-place (``GraphFeet``). ``start``: the planter's first frame."""
     held, roll, swing, alone = outputs[0], outputs[1], outputs[2], outputs[3]
     (parents, generic, inside, dts, times, cyclic, verb_floor, tips, root, legs, constants, floor, st, chain,
-     ik_params, scratch, drop, residual, replanting) = borrowed(feet.box)  # fmt: skip
+     ik_params, scratch, drop, residual, replanting) = borrowed_box(feet)  # fmt: skip
     rot, trans = planted
     n_l = held.shape[1]
     mode, offset, offset_vel, since, settle = st[0], st[4], st[5], st[6], st[11]
