@@ -162,6 +162,25 @@ def test_compiled_solver_equals_the_reference_and_batch_equals_single(verbs):
         np.testing.assert_allclose(aligned(one.rotations, fast.rotations[f]), fast.rotations[f], rtol=0, atol=1e-12)
 
 
+def test_stopping_a_leg_at_its_target_changes_the_solve_by_rounding_only(verbs, monkeypatch):
+    """Feet where the pose has them (most feet of a frame) and feet 3 cm off: a leg within ``ik.CONVERGED`` of its
+    target with its knee bent enough stops iterating; the poses are those of all eight iterations to 1e-6 rad, on
+    both paths, and compiled equals reference."""
+    verb, _ = verbs["bandai_styled_walk"]
+    chains = verb.leg_chains
+    clip, _ = verb.synthesize(verb.points[1], cycles=1)
+    targets = clip.global_positions()[:, effector_joints(verb)].copy()
+    targets[::3, 0] += np.array([0.0, 0.0, 0.03])  # every third frame's left foot moved
+    stopped = ik.solve(chains, clip.rotations, clip.translations, targets)
+    reference = ik.solve_reference(chains, clip.rotations, clip.translations, targets)
+    np.testing.assert_allclose(aligned(stopped.rotations, reference.rotations), reference.rotations, rtol=0, atol=1e-12)
+    monkeypatch.setattr(ik, "CONVERGED", -1.0)  # never stop: every leg takes all its iterations
+    full = ik.solve_reference(chains, clip.rotations, clip.translations, targets)
+    np.testing.assert_allclose(aligned(stopped.rotations, full.rotations), full.rotations, rtol=0, atol=1e-6)
+    moved = np.abs(aligned(stopped.rotations, clip.rotations) - clip.rotations).max()
+    assert stopped.residual.max() < 1e-3 and moved > 1e-3  # the feet moved are reached
+
+
 def test_floors(tmp_path):
     xz = np.array([[0.0, 0.0], [1.0, 2.0]])
     np.testing.assert_allclose(FlatFloor(0.3).height(xz), 0.3, rtol=0, atol=1e-12)

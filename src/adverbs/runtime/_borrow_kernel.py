@@ -75,8 +75,8 @@ def _strip(context, builder, ty, value):
 
 @intrinsic
 def borrowed_box(typingctx, held):  # pragma: no cover - compiled
-    """``borrowed(held.box)`` without counting the box's arrays in and out first (``.box`` would: two atomic
-    instructions per array per call)."""
+    """The box of ``held`` with every array's meminfo null, read from the structref without counting its arrays in
+    and out (``held.box`` would: two atomic instructions per array per call)."""
     box = held.field_dict["box"]
 
     def codegen(context, builder, signature, args):
