@@ -581,12 +581,15 @@ def test_the_compiled_blend_bookkeeping_is_the_numpy_one(bandai):
     root = rng.normal(size=(c, 3))
     got_root, got_trans = root.copy(), np.array(trans)
     n, free = len(rows), (np.zeros(len(rows)), np.full(len(rows), np.inf))  # any speed: the slip alone
+    fade = rng.uniform(0.2, 1.0, n)  # under a decaying offset: the part of the slip left to carry the body
+    fade[0] = 1.0
     keep_feet(graph.skeleton.parents, tips, rows, w, rot, got_trans, shown_rot, shown_trans, body, graph.inverse_above_body,
-              got_root, root, *free, DT)  # fmt: skip
+              got_root, root, *free, fade, DT)  # fmt: skip
     now = forward_kinematics(graph.skeleton.parents, rot[rows], trans[rows])[0][:, tips]
     was = forward_kinematics(graph.skeleton.parents, shown_rot[rows], shown_trans[rows])[0][:, tips]
     keep = w.sum(axis=1) > 0
     slip = np.einsum("cl,clk->ck", w[keep], (was - now)[keep]) / w[keep].sum(axis=1, keepdims=True)
+    slip *= fade[keep, None]
     slip[:, 1] = 0.0
     want_root, want_trans = root.copy(), np.array(trans)
     want_root[rows[keep], 0] += slip[:, 0]
@@ -602,7 +605,7 @@ def test_the_compiled_blend_bookkeeping_is_the_numpy_one(bandai):
     speed = rng.uniform(0.5, 3.0, n)
     held_root, held_trans = root.copy(), np.array(trans)
     keep_feet(graph.skeleton.parents, tips, rows, w, rot, held_trans, shown_rot, shown_trans, body,
-              graph.inverse_above_body, held_root, prev, speed, speed, DT)  # fmt: skip
+              graph.inverse_above_body, held_root, prev, speed, speed, np.ones(n), DT)  # fmt: skip
     step = held_root[rows, :2] - prev[rows, :2]
     np.testing.assert_allclose(np.hypot(*step.T), speed * DT, rtol=1e-12, atol=0)
     advance = root[rows, :2] - prev[rows, :2]

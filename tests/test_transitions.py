@@ -157,3 +157,17 @@ def test_a_verb_looping_after_a_transition_keeps_its_own_pace(graphs, seed, adve
             if acc[a:b].max() > 1.5 * own:
                 failures.append(f"{verb} loop at {a / FPS:.2f} s: {acc[a:b].max():.1f} m/s² (its own {own:.1f})")
     assert checked >= 3 and not failures, "\n".join(failures)
+
+
+@pytest.mark.parametrize("cue", [1.2, 2.0])
+def test_an_adverb_eased_under_a_fresh_gesture_moves_its_body_smoothly(graphs, cue):
+    """A valence cue early in a bow, while the idle→bow interruption's offset still decays. The held feet's slip (the
+    stance changing with the valence) carried the body while the offset lived and stopped in one frame when it was
+    over: the body root went from 0.1 m/s to rest (3.8 and 2.6 m/s² here; the bow's own 0.4-0.6). The carry now ends
+    with the offset (``player._keep_feet``'s fade)."""
+    graph = graphs["bandai"]
+    cues = [Cue(0.5, "bow"), Cue(cue, adverbs={"valence": 0.8})]
+    perf = perform(graph, cues, seconds=5.0, seed=3, adverbs={"valence": -0.3, "energy": 0.2}, start="idle")
+    acc = _root_acceleration(perf, graph)
+    bow = np.flatnonzero((perf.verb == graph.verb_index("bow")) & (perf.active < 0))
+    assert len(bow) > 90 and acc[bow].max() <= 1.0, acc[bow].max()

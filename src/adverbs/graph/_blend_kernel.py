@@ -21,12 +21,13 @@ from ..feet._planting_scalars import spring
 
 @njit(cache=True)
 def keep_feet(parents, tips, rows, weights, rot, trans, shown_rot, shown_trans, body, above_inv, root, prev, lo, hi,
-              dt):  # pragma: no cover  # fmt: skip
+              fade, dt):  # pragma: no cover  # fmt: skip
     """For each creature ``rows[i]`` with foot weights ``weights[i] (L,)`` (unless they sum to zero): the weighted mean
     horizontal slip ``was − now`` of its feet ``tips (L,)`` between the pose shown before (``shown_rot``,
     ``shown_trans``) and this one (``rot``, ``trans``), added to its ``root (C, 3)`` = ``(x, z, heading)`` and, in
     the frame above the body root (``above_inv``, the inverse of its rest rotation), to the body root's translation;
-    the root's step from ``prev (C, 3)`` held to ``lo[i]`` to ``hi[i]`` m/s (see :func:`keep_feet_row`)."""
+    the root's step from ``prev (C, 3)`` held to ``lo[i]`` to ``hi[i]`` m/s, the slip scaled by ``fade[i]`` (see
+    :func:`keep_feet_row`)."""
     n_j = parents.shape[0]
     now_pos, now_rot = np.empty((1, n_j, 3)), np.empty((1, n_j, 4))
     was_pos, was_rot = np.empty((1, n_j, 3)), np.empty((1, n_j, 4))
@@ -34,13 +35,14 @@ def keep_feet(parents, tips, rows, weights, rot, trans, shown_rot, shown_trans, 
         c = rows[i]
         keep_feet_row(
             parents, tips, weights[i], rot[c : c + 1], trans[c : c + 1], shown_rot[c : c + 1], shown_trans[c : c + 1],
-            body, above_inv, root[c], now_pos, now_rot, was_pos, was_rot, prev[c, 0], prev[c, 1], lo[i], hi[i], dt,
+            body, above_inv, root[c], now_pos, now_rot, was_pos, was_rot, prev[c, 0], prev[c, 1], lo[i], hi[i], fade[i],
+            dt,
         )  # fmt: skip
 
 
 @njit(cache=True, inline="always")
 def keep_feet_row(parents, tips, weights, rot, trans, shown_rot, shown_trans, body, above_inv, root, now_pos, now_rot,
-                  was_pos, was_rot, x0, z0, lo, hi, dt):  # pragma: no cover  # fmt: skip
+                  was_pos, was_rot, x0, z0, lo, hi, fade, dt):  # pragma: no cover  # fmt: skip
     """One creature of :func:`keep_feet`: its pose ``rot (1, J, 4)``, ``trans (1, J, 3)``, the one shown before, its
     ``root (3,)``; ``now_*``, ``was_*``: forward kinematics' scratch ``(1, J, 3)``, ``(1, J, 4)``.
 
@@ -49,6 +51,8 @@ def keep_feet_row(parents, tips, weights, rot, trans, shown_rot, shown_trans, bo
     their own speeds, ``α |v_A| + (1 − α) |v_B|``: carried by the whole slip of feet the verbs stand at different
     places under the body, a run braked nearly to a standstill on its way into a walk, and a start threw the body
     past the walk's speed. The legs take up the rest (the planter holds the feet, and re-places one left behind).
+    ``fade``: how much of the slip carries the body (1 in a cosine blend; under a decaying offset, as much as is left
+    of it).
     """
     total = 0.0
     for k in range(tips.shape[0]):
@@ -64,6 +68,9 @@ def keep_feet_row(parents, tips, weights, rot, trans, shown_rot, shown_trans, bo
             sz += w * (was_pos[0, tips[k], 2] - now_pos[0, tips[k], 2])
         sx /= total
         sz /= total
+        if fade != 1.0:
+            sx *= fade
+            sz *= fade
     dx = root[0] + sx - x0
     dz = root[1] + sz - z0
     d = math.sqrt(dx * dx + dz * dz)

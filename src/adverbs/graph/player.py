@@ -373,10 +373,14 @@ def _keep_feet(
     w = np.ascontiguousarray((held & state.held_before)[rows] * (1.0 - roll[rows]))
     graph = state.graph
     root = root.copy()
+    # Under a decaying offset alone, the slip carries the body as much as the offset is left (the spring's weight): the
+    # carry ends with the offset, not at once when it is over (a bow whose valence eased under it drifted 0.1 m/s,
+    # then stopped in one frame: 4 m/s², its own 0.4).
+    fade = np.where(cosine, 1.0, _spring(1.0, 0.0, state.offset_since[rows], state.offset_halflife[rows]))
     keep_feet(
         graph.skeleton.parents, graph.feet_array, rows, w, rot, trans, state.shown[0], state.shown[1],
         graph.verbs[0].encoding.body_root, graph.inverse_above_body, root, state.root,
-        speed[rows], np.where(cosine, speed[rows], np.inf), dt,
+        speed[rows], np.where(cosine, speed[rows], np.inf), fade, dt,
     )  # fmt: skip
     return root
 

@@ -433,11 +433,14 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
                 wts[i] = (1.0 if (held[c, i] and held_before[c, i]) else 0.0) * (1.0 - roll[c, i])
             # In a cosine blend the blend of the verbs' own speeds, else at least the root's own (player._speeds).
             lo, hi = math.hypot(vel[0], vel[1]), np.inf
+            fade = 1.0  # under a decaying offset alone, as much of the slip as is left of the offset (player._keep_feet)
             if cosine:
                 lo = hi = alpha * math.hypot(d_a[0], d_a[1]) + (1.0 - alpha) * math.hypot(d_b[0], d_b[1])
+            else:
+                fade = spring(1.0, 0.0, offset_since[c], offset_halflife[c], k_[_LN2])
             keep_feet_row(
                 parents, feet, wts, rot[c : c + 1], trans[c : c + 1], shown_rot[c : c + 1], shown_trans[c : c + 1], body,
-                above_inv, root[c], fk_now_pos, fk_now_rot, fk_was_pos, fk_was_rot, x0, z0, lo, hi, dt,
+                above_inv, root[c], fk_now_pos, fk_now_rot, fk_was_pos, fk_was_rot, x0, z0, lo, hi, fade, dt,
             )  # fmt: skip
     vel_out[c, 0], vel_out[c, 1], vel_out[c, 2] = root_velocity_row(x0, z0, h0, root[c, 0], root[c, 1], root[c, 2], dt)
     for i in range(feet.shape[0]):
