@@ -3,7 +3,7 @@ installing): a few seconds of the demo's scenario, feet planted, written as BVH 
 loop the main job uses (sampling, time warps, poses, forward kinematics, the planter, IK, Euler angles, the
 one-pass frame, the goal chain's solve) through its first call; a second of it on the readable reference path and
 without planting takes the rest (``graph --play`` and the tests use them). numba caches what it compiles next to the
-package, so later runs load it instead of compiling (about two minutes on a two-core machine, once).
+package, so later runs load it instead of compiling (about three minutes on a two-core machine, once).
 """
 
 from __future__ import annotations
