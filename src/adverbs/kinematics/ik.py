@@ -234,8 +234,7 @@ def solve_reference(
         end = knee + leg
         r = targets - end
         # A chain at its target with its knee bent enough stays as it is (this step and, unchanged, every later one).
-        shin_dir = (l_middle @ o_e[..., None])[..., 0]
-        flex = np.arctan2(np.sum(hinge * np.cross(o_u, shin_dir), axis=-1), np.sum(o_u * shin_dir, axis=-1))
+        flex = np.arctan2(np.sum(hinge * np.cross(o_u, shin), axis=-1), np.sum(o_u * shin, axis=-1))
         done = (np.sqrt(np.sum(r * r, axis=-1)) <= CONVERGED) & (flex >= chains.min_flex)
         v = end - hip
         c = np.cross((g_upper @ hinge[..., None])[..., 0], leg)  # knee column of J

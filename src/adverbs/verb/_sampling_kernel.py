@@ -281,7 +281,7 @@ def hull_nearest(example_q, q, out):  # pragma: no cover
     at most A + 1 examples, grown by the example farthest along −x, shrunk while the affine minimum leaves it."""
     ne, na = example_q.shape
     y = np.empty((ne, na))
-    best, i0 = np.inf, 0
+    best, i0, big = np.inf, 0, 0.0  # the nearest example, and the farthest's squared distance (a scale)
     for e in range(ne):
         s = 0.0
         for a in range(na):
@@ -289,11 +289,6 @@ def hull_nearest(example_q, q, out):  # pragma: no cover
             s += y[e, a] * y[e, a]
         if s < best:
             best, i0 = s, e
-    big = 0.0
-    for e in range(ne):
-        s = 0.0
-        for a in range(na):
-            s += y[e, a] * y[e, a]
         big = max(big, s)
     cap = na + 1
     corral = np.empty(cap, np.int64)
