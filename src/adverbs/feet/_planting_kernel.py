@@ -26,7 +26,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .._scratch_kernel import carve
+from .._scratch_kernel import carve, keep
 from ..kinematics._fk_kernel import forward
 from ..kinematics._ik_kernel import _mat_to_quat, _mm, _mv, _quat_to_mat, _rotation, solve_batch
 from ..motion import _pose_kernel
@@ -351,6 +351,7 @@ def advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, use_phase
             else:
                 _shown(c, i, base, fr, tn, follows, height, tip[i], heel_axis[i], k_, floor, state, shown_out[c, i],
                        wanted_out[c, i], s, qs)  # fmt: skip
+    keep(buf)  # its carved views are borrowed
 
 
 # ----- the rest of a frame: _rise, reach, _ride_floor, _tilts, then IK ----------------------------------
@@ -465,6 +466,7 @@ def reach(hips, rises, targets, wanted, dt, tip, axis, reach_, max_drop, k_, sta
                 targets[c, i, 0] = hips[c, i, 0] + dx + arm[0]
                 targets[c, i, 1] = hy + dy + arm[1]
                 targets[c, i, 2] = hips[c, i, 2] + dz + arm[2]
+    keep(buf)  # its carved views are borrowed
 
 
 @njit(cache=True)
@@ -520,4 +522,5 @@ def step(parents, rotations, translations, generic, inside_in, turn_in, swing_in
             return False  # ik.solve refuses these
     solve_batch(rotations, translations, targets, tilts, above, upper, middle, end, hinge, upper_offset,
                 end_offset, tip, reach_, min_flex, iterations, lam2, max_step, converged, max_drop, root_drop, residual)  # fmt: skip
+    keep(buf)  # its carved views are borrowed
     return True

@@ -28,6 +28,8 @@ def spring(x0, v0, t, halflife, ln2):  # pragma: no cover - compiled
     if t < 0.0:
         return x0 + v0 * t
     y = 2.0 * ln2 / halflife
+    if y * t > 700.0:  # long settled: exp would underflow, which libm handles slowly (errno); under 1e-300 of x0
+        return 0.0
     return (x0 + (v0 + y * x0) * t) * math.exp(-y * t)
 
 

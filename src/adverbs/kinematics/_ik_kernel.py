@@ -11,7 +11,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .._scratch_kernel import carve
+from .._scratch_kernel import carve, keep
 
 
 @njit(cache=True, inline="always")
@@ -221,3 +221,4 @@ def solve_batch(
             _mm(g_u, l_m[i], tmp)
             _mtm(tmp, wanted[i], tmp2)
             _mat_to_quat(tmp2, rot[b, end[i]])
+    keep(buf)  # its carved views are borrowed

@@ -42,7 +42,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .._scratch_kernel import carve
+from .._scratch_kernel import carve, keep
 from ..graph._blend_kernel import decay_row, keep_feet_row
 from ._borrow_kernel import borrowed_box
 from ..graph._time_kernel import _clock, _generic
@@ -447,10 +447,10 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
         held_before[c, i] = held[c, i]
 
 
-@njit(cache=True)
-def _scratch(n_d, n_j, n_l):  # pragma: no cover - compiled
-    """One chunk's working arrays (see :func:`_creature`)."""
-    buf = np.empty(4 * n_d + 4 * 3 + 4 + 28 * n_j + 3 * n_l)
+@njit(cache=True, inline="always")
+def _scratch(buf, n_d, n_j, n_l):  # pragma: no cover - compiled
+    """One chunk's working arrays (see :func:`_creature`), carved from ``buf`` (:func:`_scratch_size` long, kept
+    alive by the caller)."""
     d_a, at = carve(buf, 0, (n_d,))
     d_b, at = carve(buf, at, (n_d,))
     e_a, at = carve(buf, at, (n_d,))
@@ -477,14 +477,21 @@ def _scratch(n_d, n_j, n_l):  # pragma: no cover - compiled
     )  # fmt: skip
 
 
+@njit(cache=True, inline="always")
+def _scratch_size(n_d, n_j, n_l):  # pragma: no cover - compiled
+    """How many floats :func:`_scratch` carves."""
+    return 4 * n_d + 4 * 3 + 4 + 28 * n_j + 3 * n_l
+
+
 @njit(cache=True)
 def _chunk(lo, hi, dt, flags, verbs, transitions, skeleton, caches, state, head, buffers, outputs, k_, n_d,
            planted):  # pragma: no cover  # fmt: skip
     """Creatures ``lo`` to ``hi``: :func:`_creature` for each, their poses copied into ``planted = (rot, trans)``."""
     rot, trans = buffers[0], buffers[1]
     out_rot, out_trans = planted
-    n_j = rot.shape[1]
-    scratch = _scratch(n_d, n_j, skeleton[1].shape[0])
+    n_j, n_l = rot.shape[1], skeleton[1].shape[0]
+    buf = np.empty(_scratch_size(n_d, n_j, n_l))
+    scratch = _scratch(buf, n_d, n_j, n_l)
     for c in range(lo, hi):
         _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, buffers, outputs, k_, scratch)
         for j in range(n_j):
@@ -492,6 +499,7 @@ def _chunk(lo, hi, dt, flags, verbs, transitions, skeleton, caches, state, head,
                 out_rot[c, j, a] = rot[c, j, a]
             for a in range(3):
                 out_trans[c, j, a] = trans[c, j, a]
+    keep(buf)  # its carved views are borrowed
 
 
 @njit(cache=True, nogil=True)
@@ -595,3 +603,16 @@ def _plant(lo, hi, outputs, planted, feet, start, k_):  # pragma: no cover - com
                 if gap > (k_[_REPLANT] if alone[c] else k_[_LEFT_BEHIND]):
                     replanting[c, i] = True
     return finite
+
+
+@njit(cache=True, nogil=True)
+def same(a, b):  # pragma: no cover - compiled
+    """Whether two 2-D float arrays hold the same values (a NaN is never the same): ``np.array_equal`` of the
+    creatures' adverb points, checked every frame, without NumPy's 2 µs of Python."""
+    if a.shape != b.shape:
+        return False
+    for i in range(a.shape[0]):
+        for j in range(a.shape[1]):
+            if a[i, j] != b[i, j]:
+                return False
+    return True

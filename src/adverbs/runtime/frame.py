@@ -150,6 +150,7 @@ class FramePass:
             sync_head(state, c)
         self._pool = Threads(threads)
         self._kernel, self._planted_kernel = Entry(kernel.frame), Entry(kernel.frame_planted)
+        self._same = Entry(kernel.same)
         self._pairs = 2 * len(graph.verbs)
         self._seen = state.points.copy()  # the adverb points the caches were last brought up to date for
         self._fresh: set[tuple[int, int]] = set()  # the (verb, slot) caches up to date at those points
@@ -235,7 +236,7 @@ class FramePass:
         the caches no frame needed are brought up to date too, so later frames need not look."""
         state = self.state
         points = state.points
-        same = self._seen is not None and self._seen.shape == points.shape and np.array_equal(self._seen, points)
+        same = self._seen is not None and points.ndim == 2 and self._same((self._seen, points), self._seen, points)
         if same and len(self._fresh) == self._pairs and state.cache_version == self._version:
             return
         if not same or state.cache_version != self._version:  # moved, or rows brought to other points in between
@@ -280,8 +281,10 @@ class FramePass:
         if not has_held_before:
             state.held_before = np.zeros(self.held.shape, dtype=bool)
         new, shown, before = self._turns
-        has_shown = self._take(state.shown, shown)
-        has_before = self._take(state.shown_before, before)
+        poses = self._poses
+        # The poses shown are the pass's own buffers (the usual frame), or the reference path's, copied in.
+        has_shown = state.shown is poses[shown] or self._take(state.shown, shown)
+        has_before = state.shown_before is poses[before] or self._take(state.shown_before, before)
         planting_on = plant and self.feet is not None
         start = False
         if planting_on:
@@ -297,10 +300,12 @@ class FramePass:
             ranges = self._pool.run(self._planted_kernel, state.creatures, (dt, flags, turns, box, feet), (box, feet))
         else:
             ranges = self._pool.run(self._kernel, state.creatures, (dt, flags, turns, box), (box,))
-        finite = all(ok for ok, _ in ranges)
+        finite, events = True, 0
+        for ok, n in ranges:
+            finite, events = finite and ok, events + n
         if planting_on:
             self.feet.planter.started = True
-        if any(events for _, events in ranges):
+        if events:
             self._events()
         self._turns = (before, new, shown)
         self._turn ^= 1
@@ -390,6 +395,8 @@ class Threads:
         """``kernel(lo, hi, *args)`` over ranges covering ``creatures``; the results in order. ``key``: passed on to
         an :class:`Entry` (what its arguments' types hang on)."""
         n = max(1, min(self.threads, creatures // PER_THREAD))
+        if n == 1 and isinstance(kernel, Entry):  # (a small crowd's frame: no more Python than this)
+            return [kernel(key, 0, creatures, *args)]
         if isinstance(kernel, Entry):
             def call(lo: int, hi: int):
                 return kernel(key, lo, hi, *args)
@@ -424,8 +431,7 @@ class Entry:
         self._entry = None
 
     def __call__(self, key: tuple, *args):
-        known = self._key is not None and len(key) == len(self._key) and all(map(operator.is_, key, self._key))
-        if known and self._entry is not None:
+        if self._entry is not None and len(key) == len(self._key) and all(map(operator.is_, key, self._key)):
             return self._entry(*args)
         result = self.dispatcher(*args)
         found = self.dispatcher.overloads.get(tuple(numba.typeof(a) for a in args))
