@@ -4,6 +4,7 @@ shipped graphs and the demo script; the same frames whatever the number of threa
 
 from __future__ import annotations
 
+import multiprocessing
 import warnings
 from pathlib import Path
 
@@ -123,6 +124,24 @@ def test_threads_split_every_creature_once():
     assert seen == [(0, 5)]
     with pytest.raises(AdverbsError, match="threads"):
         Threads(0)
+
+
+_SHARED = Threads(2)  # made in the parent: a forked child inherits it, without its threads
+
+
+def _ranges(creatures: int) -> list:
+    seen = []
+    _SHARED.run(lambda lo, hi: seen.append((lo, hi)) or True, creatures, ())
+    return sorted(seen)
+
+
+def test_a_forked_process_runs_the_pass_on_threads_of_its_own():
+    # A Dask or multiprocessing worker forked after the pass ran on two threads has none of the parent's threads;
+    # handing them a range would wait forever. The child makes its own.
+    here = _ranges(1000)
+    with multiprocessing.get_context("fork").Pool(1) as pool:
+        there = pool.apply_async(_ranges, (1000,)).get(timeout=60)
+    assert there == here == [(0, 500), (500, 1000)]
 
 
 def test_a_bad_step_is_refused_and_changes_nothing(graphs):

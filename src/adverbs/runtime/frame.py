@@ -25,6 +25,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import operator
+import os
 from dataclasses import dataclass
 from weakref import WeakKeyDictionary
 
@@ -390,6 +391,7 @@ class Threads:
             raise AdverbsError(f"threads must be at least 1, got {threads!r}")
         self.threads = n
         self._executor = None
+        self._pid = 0  # the process that made the executor: a child forked from it has none of its threads
 
     def run(self, kernel, creatures: int, args: tuple, key: tuple = ()) -> list:
         """``kernel(lo, hi, *args)`` over ranges covering ``creatures``; the results in order. ``key``: passed on to
@@ -405,10 +407,11 @@ class Threads:
                 return kernel(lo, hi, *args)
         if n == 1:
             return [call(0, creatures)]
-        if self._executor is None:
+        if self._executor is None or self._pid != os.getpid():  # (waiting on a parent's pool would never end)
             from concurrent.futures import ThreadPoolExecutor
 
             self._executor = ThreadPoolExecutor(self.threads, thread_name_prefix="adverbs-frame")
+            self._pid = os.getpid()
         bounds = [creatures * k // n for k in range(n + 1)]
         futures = [self._executor.submit(call, bounds[k], bounds[k + 1]) for k in range(1, n)]
         first = call(bounds[0], bounds[1])  # this thread takes the first range
