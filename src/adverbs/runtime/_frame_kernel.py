@@ -492,7 +492,9 @@ def _chunk(lo, hi, dt, flags, verbs, transitions, skeleton, caches, state, head,
     n_j, n_l = rot.shape[1], skeleton[1].shape[0]
     buf = np.empty(_scratch_size(n_d, n_j, n_l))
     scratch = _scratch(buf, n_d, n_j, n_l)
+    time = state[8]
     for c in range(lo, hi):
+        time[c] += dt  # (player.step: state.time += dt)
         _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, buffers, outputs, k_, scratch)
         for j in range(n_j):
             for a in range(4):
@@ -536,7 +538,7 @@ def _frame(lo, hi, dt, flags, turns, held, feet):  # pragma: no cover - compiled
         _chunk(start, stop, dt, flags[:4], verbs, transitions, skeleton, caches, state, head, buffers, outputs, k_,
                n_d, planted)  # fmt: skip
         if feet is not None:
-            finite = _plant(start, stop, outputs, planted, feet, flags[4], k_) and finite
+            finite = _plant(start, stop, dt, outputs, planted, feet, flags[4], k_) and finite
     events = outputs[4]
     n_events = 0
     for c in range(lo, hi):
@@ -546,9 +548,9 @@ def _frame(lo, hi, dt, flags, turns, held, feet):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _plant(lo, hi, outputs, planted, feet, start, k_):  # pragma: no cover - compiled
+def _plant(lo, hi, dt, outputs, planted, feet, start, k_):  # pragma: no cover - compiled
     """``planted.plant`` for creatures ``lo`` to ``hi``: the planter's kernel on their poses (in place), then which feet
-    to re-place (``GraphFeet``). ``start``: the planter's first frame."""
+    to re-place (``GraphFeet``). ``start``: the planter's first frame; ``dt``: its step, every creature's."""
     held, roll, swing, alone = outputs[0], outputs[1], outputs[2], outputs[3]
     (parents, generic, inside, dts, times, cyclic, verb_floor, tips, root, legs, constants, floor, st, chain,
      ik_params, scratch, drop, residual, replanting) = borrowed_box(feet)  # fmt: skip
@@ -557,6 +559,7 @@ def _plant(lo, hi, outputs, planted, feet, start, k_):  # pragma: no cover - com
     mode, offset, offset_vel, since, settle = st[0], st[4], st[5], st[6], st[11]
     ln2 = k_[_LN2]
     for c in range(lo, hi):
+        dts[c] = dt
         for i in range(n_l):
             inside[c, i] = held[c, i] and not replanting[c, i]
             if replanting[c, i]:  # a foot re-placed steps: it swings at the least lift, not along the floor

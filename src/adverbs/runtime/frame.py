@@ -272,8 +272,7 @@ class FramePass:
         dt = float(dt)
         if not (math.isfinite(dt) and dt > 0):
             raise AdverbsError(f"dt must be a positive number of seconds, got {dt}")
-        state = self.state
-        state.time += dt
+        state = self.state  # (the kernel adds dt to every creature's state.time, and gives it to the planter)
         self._refresh()
         first = state.moving is None
         if first:
@@ -289,9 +288,7 @@ class FramePass:
         planting_on = plant and self.feet is not None
         start = False
         if planting_on:
-            p = self.feet.planter
-            p._compiled.dt[:] = dt
-            start = not p.started
+            start = not self.feet.planter.started
         flags = (first, has_shown, has_before, has_held_before, start)
         turns = (new, shown, before, self._turn)
         planted = self._planted[self._turn]
