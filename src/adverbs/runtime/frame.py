@@ -23,6 +23,7 @@ The poses a step returns are the pass's own buffers, written again two frames la
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import operator
 import os
@@ -394,24 +395,17 @@ class Threads:
         """``kernel(lo, hi, *args)`` over ranges covering ``creatures``; the results in order. ``key``: passed on to
         an :class:`Entry` (what its arguments' types hang on)."""
         n = max(1, min(self.threads, creatures // PER_THREAD))
-        if n == 1 and isinstance(kernel, Entry):  # (a small crowd's frame: no more Python than this)
-            return [kernel(key, 0, creatures, *args)]
-        if isinstance(kernel, Entry):
-            def call(lo: int, hi: int):
-                return kernel(key, lo, hi, *args)
-        else:
-            def call(lo: int, hi: int):
-                return kernel(lo, hi, *args)
+        call = functools.partial(kernel, key) if isinstance(kernel, Entry) else kernel  # call(lo, hi, *args)
         if n == 1:
-            return [call(0, creatures)]
+            return [call(0, creatures, *args)]
         if self._executor is None or self._pid != os.getpid():  # (waiting on a parent's pool would never end)
             from concurrent.futures import ThreadPoolExecutor
 
             self._executor = ThreadPoolExecutor(self.threads, thread_name_prefix="adverbs-frame")
             self._pid = os.getpid()
         bounds = [creatures * k // n for k in range(n + 1)]
-        futures = [self._executor.submit(call, bounds[k], bounds[k + 1]) for k in range(1, n)]
-        first = call(bounds[0], bounds[1])  # this thread takes the first range
+        futures = [self._executor.submit(call, bounds[k], bounds[k + 1], *args) for k in range(1, n)]
+        first = call(bounds[0], bounds[1], *args)  # this thread takes the first range
         return [first] + [f.result() for f in futures]
 
 
