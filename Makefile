@@ -51,6 +51,7 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/long_run.py
 	$(BIN)/python benchmarks/viewer.py
 	$(BIN)/python benchmarks/dataset.py
+	$(BIN)/python benchmarks/edges.py
 
 clean:
 	rm -rf $(VENV) out .pytest_cache tests/js/node_modules

@@ -256,8 +256,10 @@ def derive_holds(
         table[:, 0] = np.minimum(table[:, 0], table[:, 1])
         mean = table.mean(axis=0)
         heel_height = float(np.mean(heel_heights)) if heel_heights and point == 1 else None
-        out.append(Hold(c.effector, hold.open, hold.open + mean[2], hold.open + mean[1], float(np.mean(heights)),
-                        hold.open + mean[0], heel_height))  # fmt: skip
+        # A close kept at its keytime is that keytime, not open + (close - open), which can differ in the last bit.
+        close = hold.close if np.all(table[:, 2] == hold.close - hold.open) else hold.open + mean[2]
+        out.append(Hold(c.effector, hold.open, close, hold.open + mean[1], float(np.mean(heights)), hold.open + mean[0],
+                        heel_height))  # fmt: skip
         tables.append(table)
     return out, np.stack(tables, axis=1) if tables else np.zeros((len(clips), 0, 3)), warns
 

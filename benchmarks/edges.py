@@ -1,0 +1,145 @@
+"""Motion at the edges of verbs (issue 32), measured on the frames a performance writes: every kind of transition
+of both shipped graphs, each against its verbs played alone at the adverbs in effect.
+
+    .venv/bin/python benchmarks/edges.py            (about a minute)
+
+For each graph, a script that plays every kind of its transitions is performed at a few seeds and adverb points that
+no tuning used; each transition's window (the blend and up to half a second after it, as ``tests/test_edges.py``
+has it) is measured, and the table gives each kind's worst over every window of that kind:
+
+* **toe over own**: how much further a toe travels across the floor while within 2 cm of its contact height than
+  its verbs' own do (mm; the tests allow 20);
+* **arms, legs, trunk**: the fastest joint of that part over its verbs' own fastest of that part (x; issue 32 asks
+  at most 1.5);
+* **root acc**: the body root's horizontal acceleration over its verbs' own (x; at most 1.5);
+* **hips**: the pelvis's vertical range over the unplanted motion's (x; at most 1.2, or 2 mm over);
+* **lifted**: how far the planter holds a toe above where the verb has it (mm): a released foot left behind and
+  raised within the leg's reach flies up behind the body.
+
+A verb's "own" is the verb alone through the graph (its loops into itself included) at the same seed, over
+six seconds, from a second in (a cyclic verb) or its start (a one-shot).
+"""
+
+from __future__ import annotations
+
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+from timing import print_table
+
+from adverbs import load_graph
+from adverbs.errors import AdverbsWarning
+from adverbs.graph.performance import Cue, perform
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "tests"))  # the measures the tests hold the motion to, one definition of each
+from test_edges import FPS, _angular_speed, _contact, _windows, low_travel  # noqa: E402
+from test_transitions import _points_in_effect  # noqa: E402
+
+GRAPHS = ROOT / "graphs"
+PARTS = {
+    "arms": ("shoulder", "arm", "hand", "humerus", "radius", "wrist", "clavicle", "finger", "thumb"),
+    "legs": ("leg", "foot", "toe", "femur", "tibia"),
+    "trunk": ("hips", "spine", "chest", "neck", "head", "back", "thorax"),
+}
+RUNS = {
+    "bandai": (
+        ("Toes_L", "Toes_R"), 34.0,
+        [(0.5, "walk"), (3.5, "run"), (6.5, "walk"), (9.0, "idle"), (11.0, "reach"), (15.0, "bow"),
+         (16.5, {"valence": 0.8}), (20.0, "guide"), (24.0, "bye"), (28.0, "walk"), (31.0, "idle")],
+        [(3, {"valence": -0.3, "energy": 0.2}), (9, {"valence": 0.2, "energy": -0.3, "turn": -10.0})],
+    ),
+    "cmu": (
+        ("ltoes", "rtoes"), 15.0,
+        [(0.5, "walk"), (3.5, "run"), (6.5, "walk"), (9.5, "run"), (12.0, "walk")],
+        [(3, {}), (9, {"walk_speed": 1.0, "run_speed": 3.6, "turn": 30.0}), (12, {"run_speed": 2.4, "turn": -40.0})],
+    ),
+}  # fmt: skip
+
+
+def angular_speed(rotations: np.ndarray) -> np.ndarray:
+    """Each joint's angular speed at each frame ``(F, J)``, rad/s (0 at the first)."""
+    speed = _angular_speed(rotations)
+    return np.concatenate([np.zeros((1, speed.shape[1])), speed])
+
+
+def root_acceleration(positions: np.ndarray, body: int) -> np.ndarray:
+    """The body root's horizontal acceleration at each frame ``(F,)``, m/s²."""
+    v = np.diff(positions[:, body][:, [0, 2]], axis=0) * FPS
+    return np.r_[0.0, 0.0, np.linalg.norm(np.diff(v, axis=0), axis=1) * FPS]
+
+
+class Measured:
+    """What one performance's frames show: toes, joint speeds by part, root acceleration, hips."""
+
+    def __init__(self, perf, graph, toes: list[int], parts: dict[str, list[int]], pelvis: int):
+        pos, free = perf.planted.global_positions(), perf.free.global_positions()
+        self.toes = pos[:, toes]
+        self.contact = _contact(self.toes)
+        self.lifted = pos[:, toes, 1] - free[:, toes, 1]
+        speed = angular_speed(perf.planted.rotations)
+        self.parts = {p: speed[:, j].max(axis=1) for p, j in parts.items()}
+        self.acc = root_acceleration(pos, graph.verbs[0].encoding.body_root)
+        self.hips, self.free_hips = pos[:, pelvis, 1], free[:, pelvis, 1]
+
+
+def own(graph, verb: str, seed: int, adverbs: dict, args) -> dict[str, float]:
+    """``verb`` alone at ``adverbs``: its toes' low travel, fastest joint of each part and root acceleration."""
+    perf = perform(graph, [], seconds=6.0, seed=seed, start=verb, adverbs=adverbs)
+    m = Measured(perf, graph, *args)
+    cyclic = graph.verbs[graph.verb_index(verb)].cyclic
+    frames = np.arange(30 if cyclic else 2, len(m.acc))
+    out = {"toe": low_travel(m.toes, m.contact, frames), "acc": float(m.acc[frames].max())}
+    out.update({p: float(s[frames].max()) for p, s in m.parts.items()})
+    return out
+
+
+def measure(name: str) -> dict[tuple[str, str], list[float]]:
+    """Each kind of transition of graph ``name``: its worst of every measure over every window and run."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", AdverbsWarning)
+        graph = load_graph(GRAPHS / f"{name}.toml")
+    toe_names, seconds, script, points = RUNS[name]
+    names = graph.skeleton.names
+    toes = [names.index(n) for n in toe_names]
+    parts = {p: [i for i, n in enumerate(names) if any(k in n.lower() for k in keys)] for p, keys in PARTS.items()}
+    pelvis = next(v for v in graph.verbs if v.constraints).leg_chains.above[-1]
+    args = (toes, parts, pelvis)
+    worst: dict[tuple[str, str], list[float]] = {}
+    for seed, adverbs in points:
+        cues = [Cue(t, adverbs=v) if isinstance(v, dict) else Cue(t, v) for t, v in script]
+        perf = perform(graph, cues, seconds=seconds, seed=seed, adverbs=adverbs, start=graph.verb_names[0])
+        m = Measured(perf, graph, *args)
+        spans = _points_in_effect(adverbs, script)
+        owns = [{v: own(graph, v, seed, p, args) for v in graph.verb_names} for _, _, p in spans]
+        for s, t, a, b in _windows(perf, graph, {(x, y) for x in graph.verb_names for y in graph.verb_names}):
+            frames = np.arange(a, b)
+            mine = [o for (start, end, _), o in zip(spans, owns) if start <= b / FPS and a / FPS < end]
+            ref = {k: max(max(o[s][k], o[t][k]) for o in mine) for k in mine[0][s]}
+            row = [low_travel(m.toes, m.contact, frames) - ref["toe"]]
+            row += [float(m.parts[p][max(a - 1, 0) : b].max()) / max(ref[p], 1e-9) for p in PARTS]
+            row.append(float(m.acc[a:b].max()) / max(ref["acc"], 1e-9))
+            row.append(float(np.ptp(m.hips[frames])) / max(float(np.ptp(m.free_hips[frames])), 0.002))
+            row.append(float(m.lifted[frames].max()))
+            best = worst.setdefault((s, t), [-np.inf] * len(row))
+            worst[(s, t)] = [max(x, y) for x, y in zip(best, row)]
+    return worst
+
+
+def main() -> None:
+    for name in RUNS:
+        worst = measure(name)
+        rows = []
+        for (s, t), w in sorted(worst.items()):
+            toe, arms, legs, trunk, acc, hips, lifted = w
+            rows.append((f"{s} → {t}", f"{round(toe * 1000):d}", f"{arms:.2f}", f"{legs:.2f}", f"{trunk:.2f}", f"{acc:.2f}",
+                         f"{hips:.2f}", f"{lifted * 1000:.0f}"))  # fmt: skip
+        print(f"\n{name}: {len(RUNS[name][3])} runs of {RUNS[name][1]:.0f} s, the worst window of each kind\n")
+        print_table(("transition", "toe over own (mm)", "arms (x own)", "legs (x own)", "trunk (x own)", "root acc (x own)",
+                     "hips (x unplanted)", "lifted (mm)"), rows)  # fmt: skip
+
+
+if __name__ == "__main__":
+    main()
