@@ -71,16 +71,20 @@ def planter(graph: Graph, creatures: int = 1, floor: Floor | None = None) -> Gra
     return GraphFeet(FootPlanter(holding[0], creatures, floor), np.zeros((creatures, len(tips)), dtype=bool))
 
 
-def _step_lift(p: FootPlanter) -> np.ndarray:
+def _step_lift(p: FootPlanter, swinging: np.ndarray) -> np.ndarray:
     """How much of the least swing lift a re-placed foot has ``(C, L)``: a step, not a hop. None while it is still
     held (it is let go this frame); rising by smoothstep over ``STEP_RISE`` from its release (its height's time,
     which does not wait); and coming back down as its offset from where the verb has it (the planter's, as of the
     last frame) falls from ``STEP_LAND`` to ``REPLANTED``, where it is held again. Lifted at once and dropped at
-    once, a standing foot's knee turned 470-630 deg/s in a reach whose own legs are still."""
+    once, a standing foot's knee turned 470-630 deg/s in a reach whose own legs are still.
+
+    It comes down no lower than ``swinging (C, L)``, the lift of a verb that swings the foot itself (0 where the
+    verbs hold it): a walk's foot re-placed as it rolled off, in a stop, was brought down onto the walk's swing
+    where the blend with the stand drew it along the floor, and its toe skidded 17 cm."""
     off = p._offset()
     rise = _smoothstep(p.since[..., 1] / STEP_RISE)
     land = _smoothstep((np.hypot(off[..., 0], off[..., 2]) - REPLANTED) / (STEP_LAND - REPLANTED))
-    return np.where(p.mode == FREE, rise * land, 0.0)
+    return np.where(p.mode == FREE, rise * np.maximum(land, swinging), 0.0)
 
 
 def plant(feet: GraphFeet, frame: Frame, dt: float, alone: np.ndarray):
@@ -90,7 +94,8 @@ def plant(feet: GraphFeet, frame: Frame, dt: float, alone: np.ndarray):
     a blend of two verbs."""
     p = feet.planter
     held = frame.held & ~feet.replanting
-    swing = np.where(feet.replanting, _step_lift(p), frame.swing)  # a foot re-placed steps: it swings at the least lift
+    swinging = np.where(frame.held, 0.0, frame.swing)
+    swing = np.where(feet.replanting, _step_lift(p, swinging), frame.swing)  # a foot re-placed steps: at the least lift
     out = p.step(frame.rotations, frame.translations, None, dt, (held, frame.roll, swing))
     if feet.replanting.any():
         # Let go this frame (free, its height's offset just begun): its horizontal offset starts STEP_DELAY later,

@@ -563,6 +563,7 @@ def _plant(lo, hi, dt, outputs, planted, feet, start, k_):  # pragma: no cover -
         for i in range(n_l):
             inside[c, i] = held[c, i] and not replanting[c, i]
             if replanting[c, i]:  # a foot re-placed steps: it swings at the least lift, not along the floor
+                swinging = 0.0 if held[c, i] else swing[c, i]  # the lift of a verb swinging it itself
                 swing[c, i] = 0.0  # planted._step_lift: none while held, up from its release, down near the verb's
                 if mode[c, i] == FREE:
                     across = 0.0
@@ -571,7 +572,7 @@ def _plant(lo, hi, dt, outputs, planted, feet, start, k_):  # pragma: no cover -
                             x = spring(offset[c, i, a], offset_vel[c, i, a], since[c, i, a], k_[_SWING], ln2)
                             across += x * x
                     land = smoothstep((math.sqrt(across) - k_[_REPLANTED]) / (k_[_LAND] - k_[_REPLANTED]))
-                    swing[c, i] = smoothstep(since[c, i, 1] / k_[_RISE]) * land
+                    swing[c, i] = smoothstep(since[c, i, 1] / k_[_RISE]) * max(land, swinging)
     s = slice(lo, hi)
     sliced = (
         st[0][s], st[1][s], st[2][s], st[3][s], st[4][s], st[5][s], st[6][s], st[7][s], st[8][s], st[9][s], st[10][s],
