@@ -186,3 +186,54 @@ def test_an_adverb_eased_under_a_fresh_gesture_moves_its_body_smoothly(graphs, c
     acc = _root_acceleration(perf, graph)
     bow = np.flatnonzero((perf.verb == graph.verb_index("bow")) & (perf.active < 0))
     assert len(bow) > 90 and acc[bow].max() <= 1.0, acc[bow].max()
+
+
+@pytest.mark.parametrize("seed, adverbs", POINTS["cmu"])
+def test_a_loop_begun_late_keeps_its_verbs_pace(graphs, seed, adverbs):
+    """A verb's loop into itself begun near the end of its region (a walk → run that ended there) was stretched to the
+    shortest blend, 0.1 s, so the run's clock ran at a tenth of its speed: its root went from 3 to 0.3 m/s and back
+    within four frames. A loop blends two instances of one verb at one phase, so it now takes what is left of its
+    region: the body root never goes slower in a loop than half its verb's own slowest."""
+    graph = graphs["cmu"]
+    script, seconds, _, _ = SCRIPTS["cmu"]
+    perf = perform(graph, [Cue(t, v) for t, v in script], seconds=seconds, seed=seed, adverbs=adverbs, start="walk")
+    body = graph.verbs[0].encoding.body_root
+
+    def speeds(p):
+        xz = p.planted.global_positions()[:, body][:, [0, 2]]
+        return np.r_[0.0, np.linalg.norm(np.diff(xz, axis=0), axis=1) * FPS]
+
+    speed, checked = speeds(perf), 0
+    for verb in ("walk", "run"):
+        alone = perform(graph, [], seconds=4.0, seed=seed, start=verb, adverbs=adverbs)
+        own = speeds(alone)[30:][alone.verb[30:] == graph.verb_index(verb)].min()
+        loop = graph.loop(graph.verb_index(verb))
+        inside = np.flatnonzero(perf.active == loop)
+        checked += len(inside)
+        assert speed[inside].min() >= 0.5 * own, (verb, speed[inside].min(), own)
+    assert checked > 30, checked
+
+
+def test_a_stop_begun_as_the_walk_rolls_a_foot_off_keeps_it_up(graphs):
+    """A stop whose blend begins as the walk rolls a foot off, which the stand holds too: the planter had let the
+    foot go (the walk lifts its ball), and the blend gave it the stand's swing lift, none, so it dropped to the floor
+    for a frame while the walk carried it on (a toe 44 mm across the floor, 23 past the walk's own: the script of
+    ``benchmarks/edges.py`` at seed 3). It now keeps the lift of the verb rolling it off."""
+    graph = graphs["bandai"]
+    script = [(0.5, "walk"), (3.5, "run"), (6.5, "walk"), (9.0, "idle"), (11.0, "reach"), (15.0, "bow"),
+              (16.5, {"valence": 0.8}), (20.0, "guide"), (24.0, "bye"), (28.0, "walk"), (31.0, "idle")]  # fmt: skip
+    adverbs = {"valence": -0.3, "energy": 0.2}
+    cues = [Cue(t, adverbs=v) if isinstance(v, dict) else Cue(t, v) for t, v in script]
+    perf = perform(graph, cues, seconds=34.0, seed=3, adverbs=adverbs, start="idle")
+    names = graph.skeleton.names
+    toes = [names.index("Toes_L"), names.index("Toes_R")]
+    pos = perf.planted.global_positions()[:, toes]
+    contact = _contact(pos)
+    points = _points_in_effect(adverbs, script)
+    owns = [_own_toe_travel(graph, "walk", toes, 3, p) for _, _, p in points]
+    stops = _windows(perf, graph, {("walk", "idle")})
+    assert len(stops) >= 3, stops
+    for _, _, a, b in stops:
+        own = max(o for (start, end, _), o in zip(points, owns) if start <= b / FPS and a / FPS < end)
+        travel = low_travel(pos, contact, np.arange(a, b))
+        assert travel <= own + 0.02, (a / FPS, travel, own)

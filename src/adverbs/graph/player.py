@@ -395,8 +395,9 @@ def hold_phases(state: GraphState) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     weight, then lifts, instead of being drawn backwards along the floor; a stop's swinging foot stays free until
     the walk itself lands it. A foot both hold has rolled as far as the further of the two (else the roll of the
     verb with the weight). A free foot keeps the swing lift of the verb that swings it (both: the lesser, as the
-    verb that lands it sooner puts it down), so a blend with a verb standing on that foot does not draw the swing
-    down to the floor: a stop's swinging foot swings as the walk's does and lands as it lands.
+    verb that lands it sooner puts it down; a foot both hold, the greater, as the one rolling it off lifts it), so a
+    blend with a verb standing on that foot does not draw the swing down to the floor: a stop's swinging foot swings
+    as the walk's does and lands as it lands.
     """
     graph = state.graph
     c = state.creatures
@@ -426,6 +427,9 @@ def hold_phases(state: GraphState) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     both = ha & hb
     held = np.where(alone[:, None], ha, np.where(inertial[:, None], hb, major))
     roll = np.where(alone[:, None], ra, np.where(inertial[:, None], rb, np.where(both, np.maximum(ra, rb), np.where(first, ra, rb))))
-    lift = np.where(ha & ~hb, sb, np.where(hb & ~ha, sa, np.minimum(sa, sb)))  # the lift of the verb swinging it
+    # The lift of the verb swinging it; of the one rolling it off, where both hold it (the planter lets such a foot go
+    # as the verb lifts its ball): a stop begun as the walk rolled a foot off took the stand's none, and the foot
+    # dropped to the floor for a frame while the walk carried it on.
+    lift = np.where(ha & ~hb, sb, np.where(hb & ~ha, sa, np.where(ha & hb, np.maximum(sa, sb), np.minimum(sa, sb))))
     swing = np.where(alone[:, None], sa, np.where(inertial[:, None], sb, lift))
     return held, roll, swing

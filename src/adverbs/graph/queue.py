@@ -12,7 +12,7 @@ import numpy as np
 
 from .structure import CommandRefused
 from .clocks import _sampling, clock_of, duration
-from .state import INERTIAL_HALFLIFE, INTERRUPT_HALFLIFE, MIN_DURATION, _LATE, GraphState, _settle_queue, sync_head
+from .state import INERTIAL_HALFLIFE, INTERRUPT_HALFLIFE, MIN_DURATION, MIN_LOOP, _LATE, GraphState, _settle_queue, sync_head
 
 
 def command(state: GraphState, creature: int, verb: str | int, stay: bool = False) -> list[int]:
@@ -122,7 +122,7 @@ def _start(state: GraphState, c: int, late: float, inertial: bool = False) -> No
         length = max(length, float(clocks_b[1] - clocks_b[0]))
     state.active[c], state.into[c] = k, t.target
     state.regions[c] = (sa, ea, sb, eb)
-    state.length[c] = max(length, MIN_DURATION)
+    state.length[c] = max(length, MIN_LOOP if t.source == t.target else MIN_DURATION)
     state.beta[c] = min(late / state.length[c], 1.0)
     state.g_into[c] = sb
     state.inertial[c] = inertial or t.blend == "inertial"

@@ -21,7 +21,11 @@ from .structure import Graph
 
 INERTIAL_HALFLIFE = 0.2  # of a transition's duration: the half-life of an inertial offset's decay
 INTERRUPT_HALFLIFE = 0.2  # seconds: the shortest half-life of the offset an interruption leaves
-MIN_DURATION = 0.1  # seconds: no transition is shorter
+MIN_DURATION = 0.1  # seconds: no transition is shorter (but a verb's loop into itself, :data:`MIN_LOOP`)
+# A verb's loop into itself blends two instances of one verb at one phase, so a short blend pops nothing; stretched to
+# MIN_DURATION, a loop begun late near its region's end slowed the verb's clock tenfold (a CMU run's root from 3 to
+# 0.3 m/s for 0.1 s, then back). It takes what is left of its region, however short.
+MIN_LOOP = 1e-6  # seconds
 _LATE = 1e-9  # generic time: a region start this close behind is not yet gone by
 
 

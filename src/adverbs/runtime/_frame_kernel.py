@@ -54,7 +54,7 @@ from ..verb._sampling_kernel import GENERIC, VELOCITIES, goal_weight, phase, que
 STARTED, FINISHED = 1, 2  # events: a transition started, or finished, this frame
 FREE, BALL = 0, 2  # planting.FREE, planting.BALL
 # Where each constant sits in ``k_`` (see frame.FramePass).
-_LATE, _MIN_DURATION, _INERTIAL, _LN2, _REPLANT, _REPLANTED, _SWING, _LIFT, _LANDS, _LEFT_BEHIND, _RISE, _DELAY, _LAND = range(13)
+_LATE, _MIN_DURATION, _INERTIAL, _LN2, _REPLANT, _REPLANTED, _SWING, _LIFT, _LANDS, _LEFT_BEHIND, _RISE, _DELAY, _LAND, _MIN_LOOP = range(14)
 
 
 # ----- the tables, packed: per verb, a slice of a flat array (see frame.tables and FramePass) ------------------
@@ -175,7 +175,7 @@ def _start(c, late, k, verbs, transitions, caches, state, k_):  # pragma: no cov
         duration = max(duration, length_b)
     active[c], into[c] = k, target
     regions[c, 0], regions[c, 1], regions[c, 2], regions[c, 3] = sa, ea, sb, eb
-    length[c] = max(duration, k_[_MIN_DURATION])
+    length[c] = max(duration, k_[_MIN_LOOP] if source == target else k_[_MIN_DURATION])  # a loop: what is left
     beta[c] = min(late / length[c], 1.0)
     g_into[c] = sb
     inertial[c] = t_inertial[k]
@@ -421,7 +421,9 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
                     roll[c, i] = rb[i]
                 if ha and not hb[i]:  # the lift of the verb swinging it (B's; A's where only B holds it)
                     swing[c, i] = sb[i]
-                elif ha == hb[i]:
+                elif ha and hb[i]:  # both hold it: the lift of the one rolling it off
+                    swing[c, i] = max(sa, sb[i])
+                elif not ha and not hb[i]:
                     swing[c, i] = min(sa, sb[i])
     alone[c] = (not is_moving or not transitions[3][active[c]]) and not live  # one verb (player._step)
     # The body carried by the held feet's slip in a blend (player._keep_feet).
