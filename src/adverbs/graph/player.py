@@ -260,6 +260,7 @@ def _step(state: GraphState, dt: float) -> Frame:
     # The root moves at the velocities of the step's start, as a clip's velocity columns say (a frame's velocity is
     # its step to the next): a verb playing alone travels exactly as its synthesized clip does.
     new_root = advance_root(state.root, state.moving, dt)
+    _at_blend_speed(state, base, vel)
     state.moving = vel
     rot, trans = _decode(state, base, new_root)
     if before is not None:
@@ -317,6 +318,22 @@ def _velocity(old: np.ndarray, new: np.ndarray, dt: float) -> np.ndarray:
     out = np.empty(old.shape)
     root_velocities(np.ascontiguousarray(old), np.ascontiguousarray(new), float(dt), out)
     return out
+
+
+def _at_blend_speed(state: GraphState, base: _Base, vel: np.ndarray) -> None:
+    """In a cosine blend the body goes at the blend of the verbs' own speeds (:func:`_speeds`, :func:`_keep_feet`):
+    the velocity ``vel (C, 3)`` it carries into the next step is scaled (in place) to that speed across the floor, so
+    the verb left alone when the blend ends goes on from the speed the blend had. The blended velocity itself (each
+    verb at its clock's rate in the blend) lagged it: a walk → run ended at 3.0 m/s and its first frame alone went
+    2.3, then 3.3 (29 m/s², the run's own 8)."""
+    rows = np.flatnonzero(_cosine(state))
+    if len(rows) == 0:
+        return
+    speed = _speeds(state, base, vel)[rows]
+    m = np.hypot(vel[rows, 0], vel[rows, 1])
+    k = np.where(m > 1e-12, speed / np.where(m > 1e-12, m, 1.0), 1.0)
+    vel[rows, 0] *= k
+    vel[rows, 1] *= k
 
 
 def _cosine(state: GraphState) -> np.ndarray:

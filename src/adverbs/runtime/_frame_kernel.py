@@ -376,6 +376,12 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
     x1, z1, h1 = advance_root_row(x0, z0, h0, moving[c, 0], moving[c, 1], moving[c, 2], dt)
     for a in range(3):
         moving[c, a] = vel[a]
+    if active[c] >= 0 and not inertial[c] and transitions[3][active[c]]:  # player._at_blend_speed
+        m = math.hypot(moving[c, 0], moving[c, 1])
+        if m > 1e-12:
+            k = (alpha * math.hypot(d_a[0], d_a[1]) + (1.0 - alpha) * math.hypot(d_b[0], d_b[1])) / m
+            moving[c, 0] *= k
+            moving[c, 1] *= k
     _decode(c, x1, z1, h1, alpha, verbs, state, d_a, d_b, rot[c], trans[c], rot_b, trans_b)
     if reb:
         # The pose a frame ago, at the root then; the offset is what was shown less it.
