@@ -36,7 +36,7 @@ from adverbs.graph.performance import Cue, perform
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests"))  # the measures the tests hold the motion to, one definition of each
 from test_edges import FPS, _angular_speed, _contact, _windows, low_travel  # noqa: E402
-from test_transitions import _points_in_effect  # noqa: E402
+from test_transitions import _points_in_effect, _root_acceleration  # noqa: E402
 
 GRAPHS = ROOT / "graphs"
 PARTS = {
@@ -65,12 +65,6 @@ def angular_speed(rotations: np.ndarray) -> np.ndarray:
     return np.concatenate([np.zeros((1, speed.shape[1])), speed])
 
 
-def root_acceleration(positions: np.ndarray, body: int) -> np.ndarray:
-    """The body root's horizontal acceleration at each frame ``(F,)``, m/s²."""
-    v = np.diff(positions[:, body][:, [0, 2]], axis=0) * FPS
-    return np.r_[0.0, 0.0, np.linalg.norm(np.diff(v, axis=0), axis=1) * FPS]
-
-
 class Measured:
     """What one performance's frames show: toes, joint speeds by part, root acceleration, hips."""
 
@@ -81,7 +75,7 @@ class Measured:
         self.lifted = pos[:, toes, 1] - free[:, toes, 1]
         speed = angular_speed(perf.planted.rotations)
         self.parts = {p: speed[:, j].max(axis=1) for p, j in parts.items()}
-        self.acc = root_acceleration(pos, graph.verbs[0].encoding.body_root)
+        self.acc = _root_acceleration(perf, graph)
         self.hips, self.free_hips = pos[:, pelvis, 1], free[:, pelvis, 1]
 
 

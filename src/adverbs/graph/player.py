@@ -260,7 +260,8 @@ def _step(state: GraphState, dt: float) -> Frame:
     # The root moves at the velocities of the step's start, as a clip's velocity columns say (a frame's velocity is
     # its step to the next): a verb playing alone travels exactly as its synthesized clip does.
     new_root = advance_root(state.root, state.moving, dt)
-    _at_blend_speed(state, base, vel)
+    speed = _speeds(state, base, vel)
+    _at_blend_speed(state, vel, speed)
     state.moving = vel
     rot, trans = _decode(state, base, new_root)
     if before is not None:
@@ -288,7 +289,7 @@ def _step(state: GraphState, dt: float) -> Frame:
     blended[live] = True
     # One verb (alone, or looping into itself: its instances keep their feet alike) and no decaying offset.
     state.alone = ((state.active < 0) | ~state.graph.between_verbs[state.active]) & ~blended
-    new_root = _keep_feet(state, rot, trans, new_root, held, roll, blended, _speeds(state, base, vel), dt)
+    new_root = _keep_feet(state, rot, trans, new_root, held, roll, blended, speed, dt)
     vel = _velocity(state.root, new_root, dt)
     state.root = new_root
     state.shown_before, state.shown = state.shown, (rot, trans, vel)
@@ -320,18 +321,17 @@ def _velocity(old: np.ndarray, new: np.ndarray, dt: float) -> np.ndarray:
     return out
 
 
-def _at_blend_speed(state: GraphState, base: _Base, vel: np.ndarray) -> None:
-    """In a cosine blend the body goes at the blend of the verbs' own speeds (:func:`_speeds`, :func:`_keep_feet`):
-    the velocity ``vel (C, 3)`` it carries into the next step is scaled (in place) to that speed across the floor, so
+def _at_blend_speed(state: GraphState, vel: np.ndarray, speed: np.ndarray) -> None:
+    """In a cosine blend the body goes at the blend of the verbs' own speeds (``speed (C,)``, :func:`_speeds`; see
+    :func:`_keep_feet`): the velocity ``vel (C, 3)`` it carries into the next step is scaled (in place) to it, so
     the verb left alone when the blend ends goes on from the speed the blend had. The blended velocity itself (each
     verb at its clock's rate in the blend) lagged it: a walk → run ended at 3.0 m/s and its first frame alone went
     2.3, then 3.3 (29 m/s², the run's own 8)."""
     rows = np.flatnonzero(_cosine(state))
     if len(rows) == 0:
         return
-    speed = _speeds(state, base, vel)[rows]
     m = np.hypot(vel[rows, 0], vel[rows, 1])
-    k = np.where(m > 1e-12, speed / np.where(m > 1e-12, m, 1.0), 1.0)
+    k = np.where(m > 1e-12, speed[rows] / np.where(m > 1e-12, m, 1.0), 1.0)
     vel[rows, 0] *= k
     vel[rows, 1] *= k
 
@@ -447,6 +447,6 @@ def hold_phases(state: GraphState) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     # The lift of the verb swinging it; of the one rolling it off, where both hold it (the planter lets such a foot go
     # as the verb lifts its ball): a stop begun as the walk rolled a foot off took the stand's none, and the foot
     # dropped to the floor for a frame while the walk carried it on.
-    lift = np.where(ha & ~hb, sb, np.where(hb & ~ha, sa, np.where(ha & hb, np.maximum(sa, sb), np.minimum(sa, sb))))
+    lift = np.where(ha & ~hb, sb, np.where(hb & ~ha, sa, np.where(both, np.maximum(sa, sb), np.minimum(sa, sb))))
     swing = np.where(alone[:, None], sa, np.where(inertial[:, None], sb, lift))
     return held, roll, swing

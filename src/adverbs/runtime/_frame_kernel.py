@@ -376,10 +376,15 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
     x1, z1, h1 = advance_root_row(x0, z0, h0, moving[c, 0], moving[c, 1], moving[c, 2], dt)
     for a in range(3):
         moving[c, a] = vel[a]
-    if active[c] >= 0 and not inertial[c] and transitions[3][active[c]]:  # player._at_blend_speed
+    # In a cosine blend the body goes at the blend of the verbs' own speeds (player._speeds), and carries that speed
+    # into the next step (player._at_blend_speed).
+    cosine = active[c] >= 0 and not inertial[c] and transitions[3][active[c]]
+    blend_speed = 0.0
+    if cosine:
+        blend_speed = alpha * math.hypot(d_a[0], d_a[1]) + (1.0 - alpha) * math.hypot(d_b[0], d_b[1])
         m = math.hypot(moving[c, 0], moving[c, 1])
         if m > 1e-12:
-            k = (alpha * math.hypot(d_a[0], d_a[1]) + (1.0 - alpha) * math.hypot(d_b[0], d_b[1])) / m
+            k = blend_speed / m
             moving[c, 0] *= k
             moving[c, 1] *= k
     _decode(c, x1, z1, h1, alpha, verbs, state, d_a, d_b, rot[c], trans[c], rot_b, trans_b)
@@ -435,7 +440,6 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
     # The body carried by the held feet's slip in a blend (player._keep_feet).
     root[c, 0], root[c, 1], root[c, 2] = x1, z1, h1
     if has_shown and has_held_before:
-        cosine = is_moving and not inertial[c] and transitions[3][active[c]]
         if live or cosine:
             for i in range(feet.shape[0]):
                 wts[i] = (1.0 if (held[c, i] and held_before[c, i]) else 0.0) * (1.0 - roll[c, i])
@@ -443,7 +447,7 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
             lo, hi = math.hypot(vel[0], vel[1]), np.inf
             fade = 1.0  # under a decaying offset alone, as much of the slip as is left of the offset (player._keep_feet)
             if cosine:
-                lo = hi = alpha * math.hypot(d_a[0], d_a[1]) + (1.0 - alpha) * math.hypot(d_b[0], d_b[1])
+                lo = hi = blend_speed
             else:
                 fade = spring(1.0, 0.0, offset_since[c], offset_halflife[c], k_[_LN2])
             keep_feet_row(
