@@ -38,17 +38,17 @@ PLANE, GRID = 0, 1
 FREE, HEEL, BALL = 0, 1, 2  # planting.FREE, HEEL, BALL
 # Where each constant sits in ``k_`` (see constants()).
 _SWING, _LN2, _OFFSET, _SETTLE, _CLEARANCE, _STILL_DOWN, _LIFTS_OFF, _TOE_LANDS, _FADE = 0, 1, 2, 5, 6, 7, 8, 9, 10
-_SWING_LIFT, _LIFT_BLEND, _HEEL_LIFT, _HEEL_STEEPEST, _INSIDE, _TRAILING = 11, 12, 13, 14, 15, 16
+_SWING_LIFT, _LIFT_BLEND, _HEEL_LIFT, _HEEL_STEEPEST, _INSIDE, _TRAILING, _SLACK = 11, 12, 13, 14, 15, 16, 17
 
 
 def constants(swing, ln2, halflives, settle, clearance, still_down, lifts_off, toe_lands, drop_halflife, swing_lift,
-              lift_blend, heel_lift, heel_steepest, inside, trailing):  # fmt: skip
+              lift_blend, heel_lift, heel_steepest, inside, trailing, slack):  # fmt: skip
     """``k_``: ``SWING_HALFLIFE``, ln 2, the free offset's half-lives ``(3,)``, ``SETTLE_HALFLIFE``,
     ``SWING_CLEARANCE``, ``STILL_DOWN``, ``LIFTS_OFF``, ``TOE_LANDS``, ln 2 / ``DROP_HALFLIFE``, ``SWING_LIFT``,
-    ``LIFT_BLEND``, ``HEEL_LIFT``, ``HEEL_STEEPEST``, ``INSIDE`` and ``TRAILING``."""
+    ``LIFT_BLEND``, ``HEEL_LIFT``, ``HEEL_STEEPEST``, ``INSIDE``, ``TRAILING`` and ``EXAMPLE_SLACK``."""
     return np.array([
         swing, ln2, *halflives, settle, clearance, still_down, lifts_off, toe_lands, ln2 / drop_halflife, swing_lift,
-        lift_blend, heel_lift, heel_steepest, inside, trailing,
+        lift_blend, heel_lift, heel_steepest, inside, trailing, slack,
     ])  # fmt: skip
 
 
@@ -152,6 +152,13 @@ def _lowered(lift, hover, clearance):
 
 
 @njit(cache=True, inline="always")
+def _ramp(x, k):
+    """``planting._ramp``."""
+    x = max(x, 0.0)
+    return x * x / (2.0 * k) if x < k else x - 0.5 * k
+
+
+@njit(cache=True, inline="always")
 def _smooth_max(a, b, k):
     """``planting._smooth_max``."""
     h = max(k - abs(a - b), 0.0) / k
@@ -224,12 +231,13 @@ def _land(c, i, point, height, floor, state):
 
 
 @njit(cache=True)
-def advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, use_phases, dt, start, times, cyclic,
-            verb_floor, legs, k_, floor, state, shown_out, wanted_out):  # fmt: skip
+def advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, examples_in, use_phases, dt, start, times,
+            cyclic, verb_floor, legs, k_, floor, state, shown_out, wanted_out):  # fmt: skip
     """``FootPlanter.targets_reference``: every creature's effectors advanced by one frame (``state`` in place);
     their targets into ``shown_out (C, L, 3)`` and wanted orientations into ``wanted_out (C, L, 3, 3)``.
 
-    ``generic (C,)`` or, with ``use_phases``, ``inside_in``, ``turn_in``, ``swing_in (C, L)``; ``dt (C,)``; ``start``: the
+    ``generic (C,)`` or, with ``use_phases``, ``inside_in``, ``turn_in``, ``swing_in``, ``examples_in (C, L)`` (the
+    examples' lifts, ``-inf`` for none; without phases, none); ``dt (C,)``; ``start``: the
     first frame (the contact levels from the feet that are down); ``times (C, L, 3)``: the holds' times.
     """
     mode, turn, _, held_rot, offset, offset_vel, since, spent, rising, rel_vec, rot_since, settle = state[:12]
@@ -290,11 +298,17 @@ def advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, use_phase
             if closing:
                 if math.isfinite(gr):
                     hover[c, i] = gr
-                raised = _lowered(lift, hover[c, i], clearance)  # the let-go foot's new level
-            # Where the free rule puts the foot: the verb's, lowered by its hover, on the floor, lifted at least
-            # the swing's least lift.
+                level = hover[c, i]
+                raised = _lowered(lift, level, clearance)  # the let-go foot's new level
+            # Where the free rule puts the foot: the verb's, lowered by its hover, no lower than its examples lift
+            # it there, on the floor, lifted at least the swing's least lift.
+            swung = raised
+            if use_phases:
+                below = _lowered(examples_in[c, i], level, clearance) - raised - k_[_SLACK]
+                swung += _ramp(below, k_[_LIFT_BLEND])
             least = -np.inf if follows or held else k_[_SWING_LIFT] * swings[i]  # (not for a foot about to land)
-            base[0], base[1], base[2] = fp[0], _height(floor, fp[0], fp[2]) + height + _smooth_max(raised, least, k_[_LIFT_BLEND]), fp[2]
+            up = _smooth_max(swung, least, k_[_LIFT_BLEND])
+            base[0], base[1], base[2] = fp[0], _height(floor, fp[0], fp[2]) + height + up, fp[2]
             _tilt(floor, base[0], base[2], s[0])
             _mm(s[0], fr, free_wanted)
             rot_since[c, i] += d
@@ -470,8 +484,8 @@ def reach(hips, rises, targets, wanted, dt, tip, axis, reach_, max_drop, k_, sta
 
 
 @njit(cache=True)
-def step(parents, rotations, translations, generic, inside_in, turn_in, swing_in, use_phases, dt, start, times,
-         cyclic, verb_floor, tips, root, legs, k_, floor, state, chain, ik_params, out):  # fmt: skip
+def step(parents, rotations, translations, generic, inside_in, turn_in, swing_in, examples_in, use_phases, dt, start,
+         times, cyclic, verb_floor, tips, root, legs, k_, floor, state, chain, ik_params, out):  # fmt: skip
     """``FootPlanter.step_reference`` of ``C`` creatures' poses ``rotations (C, J, 4)``, ``translations (C, J, 3)``,
     planted in place: FK, :func:`advance`, :func:`rise`, :func:`reach`, the pelvis raised
     (``planting._ride_floor``), the feet's tilts (``FootPlanter._tilts``), then the IK
@@ -499,8 +513,8 @@ def step(parents, rotations, translations, generic, inside_in, turn_in, swing_in
             free_pos[c, i] = gpos[c, tips[i]]
             hips[c, i] = gpos[c, upper[i]]
             _quat_to_mat(grot[c, end[i]], free_rot[c, i])
-    advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, use_phases, dt, start, times, cyclic,
-            verb_floor, legs, k_, floor, state, targets, wanted)  # fmt: skip
+    advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, examples_in, use_phases, dt, start, times,
+            cyclic, verb_floor, legs, k_, floor, state, targets, wanted)  # fmt: skip
     rise(gpos[:, root], targets, verb_floor, floor, rises)
     reach(hips, rises, targets, wanted, dt, tip, legs[4], reach_, max_drop, k_, state)
     pelvis = above[len(above) - 1]

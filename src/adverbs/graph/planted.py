@@ -96,7 +96,7 @@ def plant(feet: GraphFeet, frame: Frame, dt: float, alone: np.ndarray):
     held = frame.held & ~feet.replanting
     swinging = np.where(frame.held, 0.0, frame.swing)
     swing = np.where(feet.replanting, _step_lift(p, swinging), frame.swing)  # a foot re-placed steps: at the least lift
-    out = p.step(frame.rotations, frame.translations, None, dt, (held, frame.roll, swing))
+    out = p.step(frame.rotations, frame.translations, None, dt, (held, frame.roll, swing, frame.lifts))
     if feet.replanting.any():
         # Let go this frame (free, its height's offset just begun): its horizontal offset starts STEP_DELAY later,
         # at rest until then (the lift comes first); its height does not wait.

@@ -58,7 +58,7 @@ from ..kinematics import quat
 from ..verb._sampling_kernel import GENERIC, VELOCITIES
 from ..motion._pose_kernel import blend_poses, root_velocities
 from ..motion.encoding import advance_root
-from ..feet.planter import _spring
+from ..feet.planter import _spring, example_lifts
 from ..verb.sampling import run_kernel
 from ._blend_kernel import decay_offsets, keep_feet
 from ._time_kernel import hold_rows
@@ -74,7 +74,7 @@ LANDS = 1.0  # a foot B holds and A swings lands once A's swing lift is below th
 class Frame:
     """One frame of C creatures: local ``rotations (C, J, 4)``, ``translations (C, J, 3)``, the ``root (C, 3)``,
     the root's velocities ``(C, 3)`` (sideways, forward m/s, turn rad/s), and per foot of the graph's feet
-    ``held (C, L)``, ``roll (C, L)`` and ``swing (C, L)`` (see :func:`hold_phases`)."""
+    ``held (C, L)``, ``roll (C, L)``, ``swing (C, L)`` and ``lifts (C, L)`` (see :func:`hold_phases`)."""
 
     rotations: np.ndarray
     translations: np.ndarray
@@ -83,6 +83,7 @@ class Frame:
     held: np.ndarray
     roll: np.ndarray
     swing: np.ndarray
+    lifts: np.ndarray
 
 
 def feet(graph: Graph) -> list[int]:
@@ -284,7 +285,7 @@ def _step(state: GraphState, dt: float) -> Frame:
             live, state.offset_since[live], state.offset_halflife[live], state.offset_rot, state.offset_rot_vel,
             state.offset_trans, state.offset_trans_vel, rot, trans,
         )  # fmt: skip
-    held, roll, swing = hold_phases(state)
+    held, roll, swing, lifts = hold_phases(state)
     blended = np.zeros(state.creatures, dtype=bool)
     blended[live] = True
     # One verb (alone, or looping into itself: its instances keep their feet alike) and no decaying offset.
@@ -294,7 +295,7 @@ def _step(state: GraphState, dt: float) -> Frame:
     state.root = new_root
     state.shown_before, state.shown = state.shown, (rot, trans, vel)
     state.held_before = held
-    return Frame(rot, trans, new_root.copy(), vel, held, roll, swing)
+    return Frame(rot, trans, new_root.copy(), vel, held, roll, swing, lifts)
 
 
 def first_frame(state: GraphState) -> Frame:
@@ -307,11 +308,11 @@ def first_frame(state: GraphState) -> Frame:
         raise AdverbsError("first_frame: the creatures have already moved (it is the frame before any step)")
     base = _sample(state, state.g, state.g_into)
     rot, trans = _decode(state, base, state.root)
-    held, roll, swing = hold_phases(state)
+    held, roll, swing, lifts = hold_phases(state)
     state.alone = (state.active < 0) | ~state.graph.between_verbs[state.active]
     state.moving = base.velocity.copy()
     state.shown, state.held_before = (rot, trans, base.velocity.copy()), held
-    return Frame(rot, trans, state.root.copy(), base.velocity.copy(), held, roll, swing)
+    return Frame(rot, trans, state.root.copy(), base.velocity.copy(), held, roll, swing, lifts)
 
 
 def _velocity(old: np.ndarray, new: np.ndarray, dt: float) -> np.ndarray:
@@ -402,9 +403,11 @@ def _keep_feet(
     return root
 
 
-def hold_phases(state: GraphState) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """For every creature and every foot of the graph ``(C, L)``: whether it is held, how far it has rolled off, and
-    how much of the least swing lift a free foot keeps under it (:func:`adverbs.feet.planter.swing_lifts`).
+def hold_phases(state: GraphState) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """For every creature and every foot of the graph ``(C, L)``: whether it is held, how far it has rolled off, how
+    much of the least swing lift a free foot keeps under it (:func:`adverbs.feet.planter.swing_lifts`), and how high
+    the examples lift it (:func:`adverbs.feet.planter.example_lifts`; in a cosine blend, A's and B's blended as the
+    pose is, none where either verb has none).
 
     A verb instance holds a foot as its own hold says at its generic time (the examples' contact times at its
     adverbs); a verb without a hold on that foot never holds it. In a cosine blend a foot is held where A holds it
@@ -426,18 +429,21 @@ def hold_phases(state: GraphState) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         h = np.zeros((c, len(graph.feet)), dtype=bool)
         r = np.zeros((c, len(graph.feet)))
         s = np.zeros((c, len(graph.feet)))
+        e = np.full((c, len(graph.feet)), -np.inf)
         for v, which in _by_verb(verbs, rows):
             verb = graph.verbs[v]
             if verb.holds:
                 opens, cols = graph.hold_layout[v]
                 hold_rows(g, rows[which], opens, _hold_times(state, v, slot), cols, verb.cyclic, h, r, s)
-        return h, r, s
+                mine = rows[which]
+                e[mine[:, None], cols] = example_lifts(verb, _sampling(state, v, slot).weights[mine], g[mine])
+        return h, r, s, e
 
-    ha, ra, sa = phases(state.verb, state.g, 0, c_all[~inertial])
+    ha, ra, sa, ea = phases(state.verb, state.g, 0, c_all[~inertial])
     if len(moving):
-        hb, rb, sb = phases(state.into, state.g_into, 1, moving)
+        hb, rb, sb, eb = phases(state.into, state.g_into, 1, moving)
     else:
-        return ha, ra, sa
+        return ha, ra, sa, ea
     alone = state.active < 0
     first = (blend_weight(state.beta) >= 0.5)[:, None]
     major = (ha & (hb | first)) | (hb & ~ha & (sa < LANDS))
@@ -449,4 +455,8 @@ def hold_phases(state: GraphState) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     # dropped to the floor for a frame while the walk carried it on.
     lift = np.where(ha & ~hb, sb, np.where(hb & ~ha, sa, np.where(both, np.maximum(sa, sb), np.minimum(sa, sb))))
     swing = np.where(alone[:, None], sa, np.where(inertial[:, None], sb, lift))
-    return held, roll, swing
+    alpha = blend_weight(state.beta)[:, None]
+    mixed = np.where(np.isfinite(ea) & np.isfinite(eb), alpha * np.where(np.isfinite(ea), ea, 0.0)
+                     + (1.0 - alpha) * np.where(np.isfinite(eb), eb, 0.0), -np.inf)  # fmt: skip
+    lifts = np.where(alone[:, None], ea, np.where(inertial[:, None], eb, mixed))
+    return held, roll, swing, lifts

@@ -24,7 +24,9 @@ Arguments come in tuples (``frame.FramePass`` lays them out once):
   ``flat[off[v]:off[v + 1]]``): ``segments`` ``(NumCP, E, D)`` (flat, offsets, shapes ``(V, 3)``), ``generic``
   ``(N,)``, ``cyclic (V,)``, ``goal_columns``, ``goal_window (V, 3)``, the log-quaternion decode (``rotated``,
   ``reference (V, J, 4)``, ``translated``, ``base (V, J, 3)``, ``body (V,)``, ``has_parent (V,)``, ``parent_inv
-  (V, 4)``, ``parent_pos (V, 3)``) and the holds (``opens``, ``cols`` in the graph's feet, ``has_holds (V,)``).
+  (V, 4)``, ``parent_pos (V, 3)``), the holds (``opens``, ``cols`` in the graph's feet, ``has_holds (V,)``) and
+  the examples' foot lifts (``Verb.lift_table`` ``(3, E, S + 1, L)``: flat, offsets, shapes ``(V, 3)`` of
+  ``(E, S + 1, L)``).
 * ``transitions``: ``regions (T, 4)`` (source start and end, target start and end), ``target (T,)``,
   ``inertial (T,)``, ``between (T,)`` (from one verb to another).
 * ``caches = (tables, offsets)``: each creature's ``weights``, ``keytimes``, ``seam``, ``goal`` and hold times of
@@ -317,10 +319,11 @@ def _relative_into(a, b, out):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def _phases(v, slot, c, g, verbs, caches, held, roll, swing):  # pragma: no cover - compiled
-    """``player.hold_phases`` of one verb instance: its holds at generic time ``g`` into the graph's feet columns."""
+def _phases(v, slot, c, g, verbs, caches, held, roll, swing, lifts):  # pragma: no cover - compiled
+    """``player.hold_phases`` of one verb instance: its holds at generic time ``g`` into the graph's feet columns,
+    and the examples' lifts of its feet there (``planter.example_lifts``)."""
     for i in range(held.shape[0]):
-        held[i], roll[i], swing[i] = False, 0.0, 0.0
+        held[i], roll[i], swing[i], lifts[i] = False, 0.0, 0.0, -np.inf
     if not verbs[23][v]:
         return
     opens, cols, cyclic = _part(verbs[19], verbs[20], v), _part(verbs[21], verbs[22], v), verbs[5][v]
@@ -328,6 +331,25 @@ def _phases(v, slot, c, g, verbs, caches, held, roll, swing):  # pragma: no cove
     t = g - math.floor(g) if cyclic else min(max(g, 0.0), 1.0)
     for k in range(opens.shape[0]):
         held[cols[k]], roll[cols[k]], swing[cols[k]] = hold_mode(cyclic, t, opens[k], times[3 * k : 3 * k + 3])
+    if not cyclic:  # a one-shot verb's swings have no next landing
+        return
+    table, dims = _part(verbs[24], verbs[25], v), verbs[26]
+    ne, ns, nl = dims[v, 0], dims[v, 1], dims[v, 2]
+    w = _columns(caches, slot, v, 0)[c]
+    lap = math.floor(g)
+    x = (g - lap) * (ns - 1)
+    k = min(int(math.floor(x)), ns - 2)
+    f = x - k
+    row = int(min(max(lap, -1.0), 1.0)) + 1  # the cycle before, this one, the one after
+    for i in range(nl):
+        acc, lo, hi = 0.0, np.inf, -np.inf
+        for e in range(ne):
+            at = ((row * ne + e) * ns + k) * nl + i
+            a = table[at] * (1.0 - f) + table[at + nl] * f
+            acc += w[e] * a
+            lo, hi = min(lo, a), max(hi, a)
+        if not math.isnan(acc):
+            lifts[cols[i]] = min(max(acc, lo), hi)
 
 
 @njit(cache=True)
@@ -340,11 +362,11 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
     offset_rot, offset_rot_vel, offset_trans, offset_trans_vel = state[11], state[12], state[13], state[14]
     offset_root, offset_since, offset_halflife, moving, root, held_before = state[15:21]
     rot, trans, vel_out, shown_rot, shown_trans, before_rot, before_trans = buffers
-    held, roll, swing, alone, events, g_settle = outputs
+    held, roll, swing, alone, events, g_settle, lifts = outputs
     parents, feet, above_inv, body = skeleton
     d_a, d_b, e_a, e_b, vel, vel0, r1, r2, blend = scratch[:9]
     rot_b, trans_b, rot0, trans0, hb, rb, sb, wts = scratch[9:17]
-    fk_now_pos, fk_now_rot, fk_was_pos, fk_was_rot = scratch[17:]
+    fk_now_pos, fk_now_rot, fk_was_pos, fk_was_rot, xb = scratch[17:]
     if first:  # the first step without a first frame: the velocities where the creature starts
         _base(c, g[c], g_into[c], verbs, caches, state, d_a, d_b, vel, blend)
         for a in range(3):
@@ -416,14 +438,17 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
     is_moving = active[c] >= 0
     inert = is_moving and inertial[c]
     if not inert:
-        _phases(verb[c], 0, c, g[c], verbs, caches, held[c], roll[c], swing[c])
+        _phases(verb[c], 0, c, g[c], verbs, caches, held[c], roll[c], swing[c], lifts[c])
     if is_moving:
-        _phases(into[c], 1, c, g_into[c], verbs, caches, hb, rb, sb)
+        _phases(into[c], 1, c, g_into[c], verbs, caches, hb, rb, sb, xb)
         first = alpha >= 0.5
         for i in range(hb.shape[0]):
             if inert:
-                held[c, i], roll[c, i], swing[c, i] = hb[i], rb[i], sb[i]
+                held[c, i], roll[c, i], swing[c, i], lifts[c, i] = hb[i], rb[i], sb[i], xb[i]
             else:
+                # The examples' lifts blended as the pose is; none where either verb has none.
+                ea = lifts[c, i]
+                lifts[c, i] = alpha * ea + (1.0 - alpha) * xb[i] if math.isfinite(ea) and math.isfinite(xb[i]) else -np.inf
                 ha, ra, sa = held[c, i], roll[c, i], swing[c, i]
                 held[c, i] = (ha and (hb[i] or first)) or (hb[i] and not ha and sa < k_[_LANDS])
                 if ha and hb[i]:
@@ -483,16 +508,17 @@ def _scratch(buf, n_d, n_j, n_l):  # pragma: no cover - compiled
     now_rot, at = carve(buf, at, (1, n_j, 4))
     was_pos, at = carve(buf, at, (1, n_j, 3))
     was_rot, at = carve(buf, at, (1, n_j, 4))
+    xb, at = carve(buf, at, (n_l,))
     return (
         d_a, d_b, e_a, e_b, vel, vel0, r1, r2, blend, rot_b, trans_b, rot0, trans0, np.empty(n_l, dtype=np.bool_), rb, sb,
-        wts, now_pos, now_rot, was_pos, was_rot,
+        wts, now_pos, now_rot, was_pos, was_rot, xb,
     )  # fmt: skip
 
 
 @njit(cache=True, inline="always")
 def _scratch_size(n_d, n_j, n_l):  # pragma: no cover - compiled
     """How many floats :func:`_scratch` carves."""
-    return 4 * n_d + 4 * 3 + 4 + 28 * n_j + 3 * n_l
+    return 4 * n_d + 4 * 3 + 4 + 28 * n_j + 4 * n_l
 
 
 @njit(cache=True)
@@ -563,7 +589,7 @@ def _frame(lo, hi, dt, flags, turns, held, feet):  # pragma: no cover - compiled
 def _plant(lo, hi, dt, outputs, planted, feet, start, k_):  # pragma: no cover - compiled
     """``planted.plant`` for creatures ``lo`` to ``hi``: the planter's kernel on their poses (in place), then which feet
     to re-place (``GraphFeet``). ``start``: the planter's first frame; ``dt``: its step, every creature's."""
-    held, roll, swing, alone = outputs[0], outputs[1], outputs[2], outputs[3]
+    held, roll, swing, alone, lifts = outputs[0], outputs[1], outputs[2], outputs[3], outputs[6]
     (parents, generic, inside, dts, times, cyclic, verb_floor, tips, root, legs, constants, floor, st, chain,
      ik_params, scratch, drop, residual, replanting) = borrowed_box(feet)  # fmt: skip
     rot, trans = planted
@@ -592,7 +618,7 @@ def _plant(lo, hi, dt, outputs, planted, feet, start, k_):  # pragma: no cover -
     )  # fmt: skip
     out = (scratch[0][s], scratch[1][s], scratch[2][s], scratch[3][s], drop[s], residual[s])
     finite = plant_step(
-        parents, rot[s], trans[s], generic[s], inside[s], roll[s], swing[s], True, dts[s], start, times[s], cyclic,
+        parents, rot[s], trans[s], generic[s], inside[s], roll[s], swing[s], lifts[s], True, dts[s], start, times[s], cyclic,
         verb_floor, tips, root, legs, constants, floor, sliced, chain, ik_params, out,
     )  # fmt: skip
     turn, target, prev_free = st[1], st[2], st[14]

@@ -107,6 +107,8 @@ def tables(graph: Graph) -> Tables:
         *packed([opens for opens, _ in graph.hold_layout]),
         *packed([cols for _, cols in graph.hold_layout], np.int64),
         np.array([bool(v.holds) for v in vs], dtype=np.bool_),
+        *packed([v.lift_table if v.holds and v.cyclic else np.zeros(0) for v in vs]),
+        np.array([v.lift_table.shape[1:] if v.holds and v.cyclic else (0, 2, 0) for v in vs], dtype=np.int64),
     )  # fmt: skip
     ts = graph.transitions
     transitions = (
@@ -168,6 +170,7 @@ class FramePass:
         self._feet_key: tuple | None = None
         self._feet_boxed = None
         self.held, self.roll, self.swing = np.zeros((c, n_l), dtype=bool), np.zeros((c, n_l)), np.zeros((c, n_l))
+        self.lifts = np.full((c, n_l), -np.inf)
         self.alone = np.zeros(c, dtype=bool)
         self.events = np.zeros(c, dtype=np.int64)
         self.g_settle = np.zeros(c)
@@ -339,7 +342,7 @@ class FramePass:
         if self._box_key is not None and all(map(operator.is_, key, self._box_key)):
             return self._boxed
         t = self.tables
-        outputs = (self.held, self.roll, self.swing, self.alone, self.events, self.g_settle)
+        outputs = (self.held, self.roll, self.swing, self.alone, self.events, self.g_settle, self.lifts)
         self._box_key = key
         self._boxed = hold((
             t.verbs, t.transitions, t.skeleton, self._caches, arrays, state.head, tuple(self._poses), outputs,

@@ -40,7 +40,7 @@ from . import sampling, synthesis
 from .constraints import Constraint, Hold, check_constraint, default_holds
 from . import goal as goals
 from .goal import Goal
-from ._sampling_kernel import HULL_TOL
+from ._sampling_kernel import HULL_TOL, VELOCITIES
 from ..interp.rbf import hull_nearest_reference
 
 
@@ -83,6 +83,7 @@ class ExampleRecord:
 
 
 TIMINGS = ("extrapolate", "clamp")  # Verb.timing: how keytime intervals behave past the examples
+LIFT_SAMPLES = 64  # Verb.lift_table: samples of each example's foot heights over its generic time
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:
@@ -295,6 +296,32 @@ class Verb:
         rotations, _ = self.encoding.decode(samples.transpose(1, 0, 2), self.fps)
         effectors = [c.effector for c in self.constraints]
         return LegChains.build(self.skeleton, effectors, rotations.reshape(-1, *rotations.shape[-2:]))
+
+    @cached_property
+    def lift_table(self) -> np.ndarray:
+        """Each example's effector heights over their contact heights, ``(3, E, LIFT_SAMPLES + 1, L)``: on the cycle
+        before, the cycle and the cycle after (a cyclic verb's other cycles are shifted by their seam, as sampling
+        shifts them), at generic times ``k / LIFT_SAMPLES``: how high each example lifts each foot at each moment (FK
+        of the example's own DOFs, over the verb's floor; NaN for an effector that keeps the verb's height). The
+        planter keeps a swinging foot no lower than these blended at a creature's adverbs
+        (:func:`adverbs.feet.planter.example_lifts`).
+
+        Derived from the tables alone, computed on first use and kept (it never changes).
+        """
+        from ..kinematics.fk import forward_kinematics  # (kinematics does not import verbs; kept local all the same)
+
+        e, n, d = self.coefficients.shape
+        flat = self.coefficients.transpose(1, 0, 2).reshape(n, e * d)
+        s = LIFT_SAMPLES + 1
+        samples = bspline.evaluate(flat, np.linspace(0, 1, s)).reshape(s, e, d).transpose(1, 0, 2)
+        shift = np.array(self.seam_table[:e])
+        shift[:, :VELOCITIES] = 0.0  # (sampling shifts the pose's columns by the laps' seams, not the velocities)
+        laps = np.stack([samples + lap * shift[:, None] for lap in (-1, 0, 1)])
+        rot, trans = self.encoding.decode_pose(laps, np.zeros(3))
+        pos, _ = forward_kinematics(self.skeleton.parents, rot, trans)
+        tips = [self.skeleton.index(c.effector) for c in self.constraints]
+        heights = np.array([np.nan if h.height is None else h.height for h in self.holds])
+        return _frozen(pos[..., tips, 1] - self.floor - heights)
 
     def point(self, values: dict[str, float] | Sequence[float] | np.ndarray) -> np.ndarray:
         """An adverb point ``(A,)`` from a mapping of adverb names (missing ones: the examples' mean) or a sequence."""
