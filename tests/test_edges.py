@@ -252,3 +252,59 @@ def test_the_cmu_walk_and_run_blend_on_their_feet_without_braking(cmu, seed, adv
         travel = low_travel(pos[:, toes], _contact(pos[:, toes]), np.arange(a, b))
         assert travel <= own_travel + 0.02, (s, t, a / FPS, travel, own_travel)
         assert speed[a:b].min() >= 0.5 * own_slowest, (s, t, a / FPS, speed[a:b].min(), own_slowest)
+
+
+def _run_low_travel(graph, point, seed: int = 1) -> float:
+    """The furthest a toe of the CMU run, played alone at ``point = (run_speed, turn)``, travels low on the floor."""
+    perf = perform(graph, [], seconds=5.0, seed=seed, start="run", adverbs={"run_speed": point[0], "turn": point[1]})
+    toes = [graph.skeleton.names.index(n) for n in ("ltoes", "rtoes")]
+    pos = perf.planted.global_positions()[:, toes]
+    return low_travel(pos, _contact(pos), np.arange(30, len(pos)))
+
+
+@pytest.mark.parametrize("point", [(4.14, 42.9), (3.51, 20.6), (3.84, 28.1)])
+def test_the_cmu_run_between_its_examples_lands_its_feet_as_they_do(cmu, point):
+    """Between its examples, the run's feet come down as the examples it blends do: no low toe travels 2 cm further
+    than the furthest of theirs (each example played alone at its own point, those weighing at least 0.1). A blend of
+    the examples' leg rotations swung the feet lower than any of them (3 cm lower through the landing at 3.6 m/s
+    turning 30°/s): the toes came in low and fast and skidded 33-36 cm at these points (now 12-15), against the
+    examples' 21 cm.
+    The points are drawn at random inside the examples' box (seed 11); nothing was tuned on them."""
+    verb = cmu.verbs[cmu.verb_index("run")]
+    weights = verb.weights(np.array(point))
+    own = max(_run_low_travel(cmu, verb.points[e]) for e in np.flatnonzero(weights >= 0.1))
+    travel = _run_low_travel(cmu, point)
+    assert travel <= own + 0.02, f"a low toe travels {travel * 1000:.0f} mm (its examples' {own * 1000:.0f})"
+
+
+def test_the_examples_lift_is_each_examples_own_at_its_point(cmu):
+    """At an example's own point (one-hot weights) the examples' lift of each foot is that example's own: its feet's
+    heights over their contact heights, FK of the verb's DOFs there, to rounding at the table's samples and within
+    the planter's slack between them (so the planter leaves an example as it is); on the cycle before, the same
+    shifted by the seam as sampling shifts it."""
+    from adverbs.feet.planter import EXAMPLE_SLACK, example_lifts
+    from adverbs.kinematics.fk import forward_kinematics
+    from adverbs.verb.tables import LIFT_SAMPLES
+
+    verb = cmu.verbs[cmu.verb_index("run")]
+    tips = [verb.skeleton.index(c.effector) for c in verb.constraints]
+    heights = np.array([h.height for h in verb.holds])
+    at_samples = np.arange(LIFT_SAMPLES) / LIFT_SAMPLES
+    between = at_samples + 0.37 / LIFT_SAMPLES
+    for e, p in enumerate(verb.points):
+        one_hot = np.zeros((1, len(verb.examples)))
+        one_hot[0, e] = 1.0
+        for g, tol in ((at_samples, 1e-12), (between, EXAMPLE_SLACK)):
+            rot, trans = verb.encoding.decode_pose(verb.dofs(np.tile(p, (len(g), 1)), g), np.zeros(3))
+            own = forward_kinematics(verb.skeleton.parents, rot, trans)[0][:, tips, 1] - verb.floor - heights
+            got = np.concatenate([example_lifts(verb, one_hot, np.array([t])) for t in g])
+            np.testing.assert_allclose(got, own, rtol=0, atol=tol)
+    # The cycle before: what the seam-shifted pose of a loop's entering verb has.
+    shift = np.array(verb.seam_table[0])
+    shift[:3] = 0.0
+    g = np.array([0.25, 0.5])
+    rot, trans = verb.encoding.decode_pose(verb.dofs(np.tile(verb.points[0], (2, 1)), g) - shift, np.zeros(3))
+    own = forward_kinematics(verb.skeleton.parents, rot, trans)[0][:, tips, 1] - verb.floor - heights
+    one_hot = np.eye(len(verb.examples))[:1]
+    got = np.concatenate([example_lifts(verb, one_hot, np.array([t - 1.0])) for t in g])
+    np.testing.assert_allclose(got, own, rtol=0, atol=1e-12)

@@ -83,7 +83,7 @@ class ExampleRecord:
 
 
 TIMINGS = ("extrapolate", "clamp")  # Verb.timing: how keytime intervals behave past the examples
-LIFT_SAMPLES = 64  # Verb.lift_table: samples of each example's foot heights over its generic time
+LIFT_SAMPLES = 128  # Verb.lift_table: samples of each example's foot heights over its generic time
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:
