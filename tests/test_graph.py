@@ -580,11 +580,13 @@ def test_the_compiled_blend_bookkeeping_is_the_numpy_one(bandai):
     w[2, 0] = 0.0
     root = rng.normal(size=(c, 3))
     got_root, got_trans = root.copy(), np.array(trans)
-    n, free = len(rows), (np.zeros(len(rows)), np.full(len(rows), np.inf))  # any speed: the slip alone
+    n = len(rows)
+    free = (np.zeros(n), np.full(n, np.inf), np.full(n, np.inf))  # any speed, any change of velocity: the slip alone
+    shown_vel = rng.normal(0, 1.0, (c, 3))
     fade = rng.uniform(0.2, 1.0, n)  # under a decaying offset: the part of the slip left to carry the body
     fade[0] = 1.0
-    keep_feet(graph.skeleton.parents, tips, rows, w, rot, got_trans, shown_rot, shown_trans, body, graph.inverse_above_body,
-              got_root, root, *free, fade, DT)  # fmt: skip
+    keep_feet(graph.skeleton.parents, tips, rows, w, rot, got_trans, shown_rot, shown_trans, shown_vel, body,
+              graph.inverse_above_body, got_root, root, *free, fade, DT)  # fmt: skip
     now = forward_kinematics(graph.skeleton.parents, rot[rows], trans[rows])[0][:, tips]
     was = forward_kinematics(graph.skeleton.parents, shown_rot[rows], shown_trans[rows])[0][:, tips]
     keep = w.sum(axis=1) > 0
@@ -604,8 +606,8 @@ def test_the_compiled_blend_bookkeeping_is_the_numpy_one(bandai):
     prev = root - rng.normal(0, 0.03, root.shape)
     speed = rng.uniform(0.5, 3.0, n)
     held_root, held_trans = root.copy(), np.array(trans)
-    keep_feet(graph.skeleton.parents, tips, rows, w, rot, held_trans, shown_rot, shown_trans, body,
-              graph.inverse_above_body, held_root, prev, speed, speed, np.ones(n), DT)  # fmt: skip
+    keep_feet(graph.skeleton.parents, tips, rows, w, rot, held_trans, shown_rot, shown_trans, shown_vel, body,
+              graph.inverse_above_body, held_root, prev, speed, speed, np.full(n, np.inf), np.ones(n), DT)  # fmt: skip
     step = held_root[rows, :2] - prev[rows, :2]
     np.testing.assert_allclose(np.hypot(*step.T), speed * DT, rtol=1e-12, atol=0)
     advance = root[rows, :2] - prev[rows, :2]
@@ -614,6 +616,29 @@ def test_the_compiled_blend_bookkeeping_is_the_numpy_one(bandai):
     slip = np.stack([moved[:, 0], np.zeros(n), moved[:, 1]], axis=1)
     np.testing.assert_allclose(held_trans[rows, body] - trans[rows, body], quat.rotate(graph.inverse_above_body, slip),
                                rtol=0, atol=1e-15)  # fmt: skip
+    # Under a decaying offset, its velocity within ``change`` m/s² of the one shown before (sideways, forward, turn,
+    # its step ending at the heading the root has): the slip's step where it is within, else the nearest within.
+    change = np.array([0.5, 4.0, 1e3, 4.0, 40.0, 0.0])
+    limited_root, limited_trans = root.copy(), np.array(trans)
+    keep_feet(graph.skeleton.parents, tips, rows, w, rot, limited_trans, shown_rot, shown_trans, shown_vel, body,
+              graph.inverse_above_body, limited_root, root, np.zeros(n), np.full(n, np.inf), change, np.ones(n), DT)  # fmt: skip
+    free_root = root.copy()
+    keep_feet(graph.skeleton.parents, tips, rows, w, rot, np.array(trans), shown_rot, shown_trans, shown_vel, body,
+              graph.inverse_above_body, free_root, root, *free, np.ones(n), DT)  # fmt: skip
+    mid = root[rows, 2] - 0.5 * shown_vel[rows, 2] * DT
+    before = quat.rotate(quat.about_y(mid), np.stack([shown_vel[rows, 0], np.zeros(n), shown_vel[rows, 1]], axis=1))
+    for i, c_ in enumerate(rows):
+        if not keep[i]:
+            continue
+        wanted = (free_root[c_, :2] - root[c_, :2]) / DT
+        got = (limited_root[c_, :2] - root[c_, :2]) / DT
+        gap = np.hypot(*(wanted - before[i, [0, 2]]))
+        if gap <= change[i] * DT:
+            np.testing.assert_allclose(got, wanted, rtol=0, atol=1e-12)
+        else:
+            np.testing.assert_allclose(np.hypot(*(got - before[i, [0, 2]])), change[i] * DT, rtol=0, atol=1e-12)
+            unit = (wanted - before[i, [0, 2]]) / gap
+            np.testing.assert_allclose(got, before[i, [0, 2]] + unit * change[i] * DT, rtol=0, atol=1e-12)
 
     off_rot, off_rot_vel = rng.normal(0, 0.3, (c, j, 3)), rng.normal(0, 2.0, (c, j, 3))
     off_trans, off_trans_vel = rng.normal(0, 0.05, (c, j, 3)), rng.normal(0, 0.5, (c, j, 3))

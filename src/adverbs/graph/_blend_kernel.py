@@ -15,19 +15,19 @@ import numpy as np
 from numba import njit
 
 from ..kinematics._fk_kernel import forward
-from ..motion._pose_kernel import _exp, _mul
+from ..motion._pose_kernel import _exp, _mul, _rotate_about_y
 from ..feet._planting_scalars import spring
 
 
 @njit(cache=True)
-def keep_feet(parents, tips, rows, weights, rot, trans, shown_rot, shown_trans, body, above_inv, root, prev, lo, hi,
-              fade, dt):  # pragma: no cover  # fmt: skip
+def keep_feet(parents, tips, rows, weights, rot, trans, shown_rot, shown_trans, shown_vel, body, above_inv, root, prev,
+              lo, hi, change, fade, dt):  # pragma: no cover  # fmt: skip
     """For each creature ``rows[i]`` with foot weights ``weights[i] (L,)`` (unless they sum to zero): the weighted mean
     horizontal slip ``was − now`` of its feet ``tips (L,)`` between the pose shown before (``shown_rot``,
     ``shown_trans``) and this one (``rot``, ``trans``), added to its ``root (C, 3)`` = ``(x, z, heading)`` and, in
     the frame above the body root (``above_inv``, the inverse of its rest rotation), to the body root's translation;
-    the root's step from ``prev (C, 3)`` held to ``lo[i]`` to ``hi[i]`` m/s, the slip scaled by ``fade[i]`` (see
-    :func:`keep_feet_row`)."""
+    the root's velocity held within ``change[i]`` m/s² of the one shown, ``shown_vel (C, 3)``, and its step from
+    ``prev (C, 3)`` to ``lo[i]`` to ``hi[i]`` m/s, the slip scaled by ``fade[i]`` (see :func:`keep_feet_row`)."""
     n_j = parents.shape[0]
     now_pos, now_rot = np.empty((1, n_j, 3)), np.empty((1, n_j, 4))
     was_pos, was_rot = np.empty((1, n_j, 3)), np.empty((1, n_j, 4))
@@ -35,19 +35,21 @@ def keep_feet(parents, tips, rows, weights, rot, trans, shown_rot, shown_trans, 
         c = rows[i]
         keep_feet_row(
             parents, tips, weights[i], rot[c : c + 1], trans[c : c + 1], shown_rot[c : c + 1], shown_trans[c : c + 1],
-            body, above_inv, root[c], now_pos, now_rot, was_pos, was_rot, prev[c, 0], prev[c, 1], lo[i], hi[i], fade[i],
-            dt,
+            body, above_inv, root[c], now_pos, now_rot, was_pos, was_rot, prev[c, 0], prev[c, 1], prev[c, 2],
+            shown_vel[c, 0], shown_vel[c, 1], shown_vel[c, 2], lo[i], hi[i], change[i], fade[i], dt,
         )  # fmt: skip
 
 
 @njit(cache=True, inline="always")
 def keep_feet_row(parents, tips, weights, rot, trans, shown_rot, shown_trans, body, above_inv, root, now_pos, now_rot,
-                  was_pos, was_rot, x0, z0, lo, hi, fade, dt):  # pragma: no cover  # fmt: skip
+                  was_pos, was_rot, x0, z0, h0, svx, svz, sturn, lo, hi, change, fade, dt):  # pragma: no cover  # fmt: skip
     """One creature of :func:`keep_feet`: its pose ``rot (1, J, 4)``, ``trans (1, J, 3)``, the one shown before, its
     ``root (3,)``; ``now_*``, ``was_*``: forward kinematics' scratch ``(1, J, 3)``, ``(1, J, 4)``.
 
-    The root's step from ``(x0, z0)`` is then held to ``lo`` to ``hi`` m/s, along the root's advance by the
-    blended velocities (``0`` and ``inf``: any). In a cosine blend of two verbs the graph holds it to the blend of
+    Carried by held feet, the root's velocity is first held within ``change`` m/s² of the one shown before, ``(svx,
+    svz, sturn)`` (sideways, forward, turn; its step ended at heading ``h0``): under a decaying offset the body goes
+    where its feet take it, only not at once (``inf``: at once). Its step from ``(x0, z0)`` is then held to ``lo`` to ``hi`` m/s, along the
+    root's advance by the blended velocities (``0`` and ``inf``: any). In a cosine blend of two verbs the graph holds it to the blend of
     their own speeds, ``α |v_A| + (1 − α) |v_B|``: carried by the whole slip of feet the verbs stand at different
     places under the body, a run braked nearly to a standstill on its way into a walk, and a start threw the body
     past the walk's speed. The legs take up the rest (the planter holds the feet, and re-places one left behind).
@@ -73,6 +75,14 @@ def keep_feet_row(parents, tips, weights, rot, trans, shown_rot, shown_trans, bo
             sz *= fade
     dx = root[0] + sx - x0
     dz = root[1] + sz - z0
+    if total > 0.0 and math.isfinite(change):  # the velocity shown before, in the world: its step's heading halfway
+        px, _, pz = _rotate_about_y(h0 - 0.5 * sturn * dt, svx, 0.0, svz)
+        ex, ez = dx - px * dt, dz - pz * dt
+        e = math.sqrt(ex * ex + ez * ez)
+        if e > change * dt * dt:
+            k = change * dt * dt / e
+            dx, dz = px * dt + ex * k, pz * dt + ez * k
+            sx, sz = x0 + dx - root[0], z0 + dz - root[1]
     d = math.sqrt(dx * dx + dz * dz)
     if d > hi * dt or d < lo * dt:  # along the verbs' own way (the root's advance), else the slip's
         ax, az = root[0] - x0, root[1] - z0

@@ -68,6 +68,7 @@ from .queue import _finish, _start
 from .state import _LATE, GraphState
 
 LANDS = 1.0  # a foot B holds and A swings lands once A's swing lift is below this: as soon as A begins to land it
+CARRY_ACCELERATION = 4.0  # m/s²: under a decaying offset the carried body's velocity changes no faster than this
 
 
 @dataclass
@@ -395,10 +396,14 @@ def _keep_feet(
     # carry ends with the offset, not at once when it is over (a bow whose valence eased under it drifted 0.1 m/s,
     # then stopped in one frame: 4 m/s², its own 0.4).
     fade = np.where(cosine, 1.0, _spring(1.0, 0.0, state.offset_since[rows], state.offset_halflife[rows]))
+    # ... and its velocity changes from the one shown by no more than CARRY_ACCELERATION: a cosine blend had held the
+    # body to its speed while the slip ran ahead, and a command that cut it short let the whole slip carry it at once
+    # (a start cut short two frames in went from 0.07 to 0.37 m/s in a frame, 13 m/s²).
+    change = np.where(cosine, np.inf, CARRY_ACCELERATION)
     keep_feet(
         graph.skeleton.parents, graph.feet_array, rows, w, rot, trans, state.shown[0], state.shown[1],
-        graph.verbs[0].encoding.body_root, graph.inverse_above_body, root, state.root,
-        speed[rows], np.where(cosine, speed[rows], np.inf), fade, dt,
+        np.ascontiguousarray(state.shown[2]), graph.verbs[0].encoding.body_root, graph.inverse_above_body, root,
+        state.root, speed[rows], np.where(cosine, speed[rows], np.inf), change, fade, dt,
     )  # fmt: skip
     return root
 

@@ -57,6 +57,7 @@ STARTED, FINISHED = 1, 2  # events: a transition started, or finished, this fram
 FREE, BALL = 0, 2  # planting.FREE, planting.BALL
 # Where each constant sits in ``k_`` (see frame.FramePass).
 _LATE, _MIN_DURATION, _INERTIAL, _LN2, _REPLANT, _REPLANTED, _SWING, _LIFT, _LANDS, _LEFT_BEHIND, _RISE, _DELAY, _LAND, _MIN_LOOP = range(14)
+_CARRY = 14
 
 
 # ----- the tables, packed: per verb, a slice of a flat array (see frame.tables and FramePass) ------------------
@@ -361,7 +362,7 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
     inertial, rebase = state[9], state[10]
     offset_rot, offset_rot_vel, offset_trans, offset_trans_vel = state[11], state[12], state[13], state[14]
     offset_root, offset_since, offset_halflife, moving, root, held_before = state[15:21]
-    rot, trans, vel_out, shown_rot, shown_trans, before_rot, before_trans = buffers
+    rot, trans, vel_out, shown_rot, shown_trans, before_rot, before_trans, shown_vel = buffers
     held, roll, swing, alone, events, g_settle, lifts = outputs
     parents, feet, above_inv, body = skeleton
     d_a, d_b, e_a, e_b, vel, vel0, r1, r2, blend = scratch[:9]
@@ -469,15 +470,17 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
             for i in range(feet.shape[0]):
                 wts[i] = (1.0 if (held[c, i] and held_before[c, i]) else 0.0) * (1.0 - roll[c, i])
             # In a cosine blend the blend of the verbs' own speeds, else at least the root's own (player._speeds).
-            lo, hi = math.hypot(vel[0], vel[1]), np.inf
+            lo, hi, change = math.hypot(vel[0], vel[1]), np.inf, k_[_CARRY]
             fade = 1.0  # under a decaying offset alone, as much of the slip as is left of the offset (player._keep_feet)
             if cosine:
                 lo = hi = blend_speed
+                change = np.inf
             else:
                 fade = spring(1.0, 0.0, offset_since[c], offset_halflife[c], k_[_LN2])
             keep_feet_row(
                 parents, feet, wts, rot[c : c + 1], trans[c : c + 1], shown_rot[c : c + 1], shown_trans[c : c + 1], body,
-                above_inv, root[c], fk_now_pos, fk_now_rot, fk_was_pos, fk_was_rot, x0, z0, lo, hi, fade, dt,
+                above_inv, root[c], fk_now_pos, fk_now_rot, fk_was_pos, fk_was_rot, x0, z0, h0, shown_vel[c, 0],
+                shown_vel[c, 1], shown_vel[c, 2], lo, hi, change, fade, dt,
             )  # fmt: skip
     vel_out[c, 0], vel_out[c, 1], vel_out[c, 2] = root_velocity_row(x0, z0, h0, root[c, 0], root[c, 1], root[c, 2], dt)
     for i in range(feet.shape[0]):
@@ -568,7 +571,7 @@ def _frame(lo, hi, dt, flags, turns, held, feet):  # pragma: no cover - compiled
     boxed = borrowed_box(held)
     verbs, transitions, skeleton, caches, state, head, poses, outputs, k_, chunk, n_d, planted_sets = boxed
     new, shown, before = poses[turns[0]], poses[turns[1]], poses[turns[2]]
-    buffers = (new[0], new[1], new[2], shown[0], shown[1], before[0], before[1])
+    buffers = (new[0], new[1], new[2], shown[0], shown[1], before[0], before[1], shown[2])
     planted = planted_sets[turns[3]]
     finite = True
     for start in range(lo, hi, chunk):
