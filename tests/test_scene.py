@@ -227,7 +227,10 @@ def test_run_interrupted_keeps_what_it_recorded_and_refuses_options_it_would_ign
     script.write_text("seconds = 600\n[[cues]]\nat = 1.0\nperform = 'run'\n")
     out = tmp_path / "o"
     cmd = [sys.executable, "-m", "adverbs", "run", str(ROOT / "graphs" / "cmu.toml"), "--script", str(script), "--out", str(out), "--realtime"]
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # (Ctrl-C's default: a shell's background job, `make test &`, starts its children with SIGINT ignored, and Python
+    # then installs no handler for it)
+    restore = lambda: signal.signal(signal.SIGINT, signal.SIG_DFL)  # noqa: E731
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=restore)
     time.sleep(12)  # the graph built (a few seconds) and some seconds of motion played
     assert proc.poll() is None
     proc.send_signal(signal.SIGINT)
