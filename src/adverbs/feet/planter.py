@@ -661,10 +661,9 @@ def example_lifts(verb: Verb, weights: np.ndarray, g: np.ndarray) -> np.ndarray:
     lap = np.floor(g)
     x = (g - lap) * s
     k = np.minimum(np.floor(x).astype(np.int64), s - 1)
-    f = (x - k)[None, :, None]
-    rows = table[np.clip(lap, -1, 1).astype(np.int64) + 1]  # (C, E, S + 1, L)
-    c_all = np.arange(c)
-    at = (rows[c_all, :, k] * (1.0 - f.transpose(1, 0, 2)) + rows[c_all, :, k + 1] * f.transpose(1, 0, 2))  # (C, E, L)
+    f = (x - k)[:, None, None]
+    row = np.clip(lap, -1, 1).astype(np.int64) + 1  # the cycle before, this one, the one after
+    at = table[row, :, k] * (1.0 - f) + table[row, :, k + 1] * f  # (C, E, L)
     w = np.asarray(weights, dtype=float)[:, : table.shape[1]]
     out = np.zeros((c, n_l))
     for e in range(table.shape[1]):  # summed in the kernel's order: the same bits
