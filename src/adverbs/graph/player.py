@@ -375,7 +375,8 @@ def _keep_feet(
     verb, which keep their feet alike: its root is the verb's own, so it turns and travels as the verb does. A
     decaying offset (an inertial blend, an interruption) moves the legs as a blend does, and the body is carried
     the same way. The carried body goes along the root's advance at ``speed (C,)`` m/s (:func:`_speeds`) in a cosine
-    blend (the blend of the verbs' own), and at no less than it under a decaying offset (the root's own). Carried
+    blend (the blend of the verbs' own), and at no less than it under a decaying offset (the root's own), its velocity
+    changing no faster than ``CARRY_ACCELERATION`` there. Carried
     by the whole slip, a run braked nearly to a standstill on its way into a walk and lurched on, a start threw
     the body past the walk's speed, and a run for a second after an interruption dipped to 1.9 m/s and lurched on
     at 2.6 (root acceleration 18-22 m/s², the run's own 6). The planter's IK takes up the
@@ -396,7 +397,7 @@ def _keep_feet(
     # carry ends with the offset, not at once when it is over (a bow whose valence eased under it drifted 0.1 m/s,
     # then stopped in one frame: 4 m/s², its own 0.4).
     fade = np.where(cosine, 1.0, _spring(1.0, 0.0, state.offset_since[rows], state.offset_halflife[rows]))
-    # ... and its velocity changes from the one shown by no more than CARRY_ACCELERATION: a cosine blend had held the
+    # ... and its velocity changes from the one shown no faster than CARRY_ACCELERATION: a cosine blend had held the
     # body to its speed while the slip ran ahead, and a command that cut it short let the whole slip carry it at once
     # (a start cut short two frames in went from 0.07 to 0.37 m/s in a frame, 13 m/s²).
     change = np.where(cosine, np.inf, CARRY_ACCELERATION)
