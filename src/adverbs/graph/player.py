@@ -451,7 +451,8 @@ def hold_phases(state: GraphState) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
     else:
         return ha, ra, sa, ea
     alone = state.active < 0
-    first = (blend_weight(state.beta) >= 0.5)[:, None]
+    alpha = blend_weight(state.beta)[:, None]  # A's weight in a cosine blend
+    first = alpha >= 0.5
     major = (ha & (hb | first)) | (hb & ~ha & (sa < LANDS))
     both = ha & hb
     held = np.where(alone[:, None], ha, np.where(inertial[:, None], hb, major))
@@ -461,7 +462,6 @@ def hold_phases(state: GraphState) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
     # dropped to the floor for a frame while the walk carried it on.
     lift = np.where(ha & ~hb, sb, np.where(hb & ~ha, sa, np.where(both, np.maximum(sa, sb), np.minimum(sa, sb))))
     swing = np.where(alone[:, None], sa, np.where(inertial[:, None], sb, lift))
-    alpha = blend_weight(state.beta)[:, None]
     mixed = np.where(np.isfinite(ea) & np.isfinite(eb), alpha * np.where(np.isfinite(ea), ea, 0.0)
                      + (1.0 - alpha) * np.where(np.isfinite(eb), eb, 0.0), -np.inf)  # fmt: skip
     lifts = np.where(alone[:, None], ea, np.where(inertial[:, None], eb, mixed))

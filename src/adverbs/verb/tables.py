@@ -282,6 +282,12 @@ class Verb:
     def adverb_names(self) -> tuple[str, ...]:
         return tuple(a.name for a in self.adverbs)
 
+    def _example_samples(self, n: int) -> np.ndarray:
+        """Each example's DOFs ``(E, n, D)`` at ``n`` evenly spaced generic times from 0 to 1 (its fitted curve)."""
+        e, cp, d = self.coefficients.shape
+        flat = self.coefficients.transpose(1, 0, 2).reshape(cp, e * d)
+        return bspline.evaluate(flat, np.linspace(0, 1, n)).reshape(n, e, d).transpose(1, 0, 2)
+
     @cached_property
     def leg_chains(self) -> LegChains:
         """The two-bone chains of the constrained effectors, knee axes fitted to the examples.
@@ -290,10 +296,7 @@ class Verb:
         """
         if not self.constraints:
             raise AdverbsError(f"verb {self.name!r} has no constraints")
-        e, n, d = self.coefficients.shape
-        flat = self.coefficients.transpose(1, 0, 2).reshape(n, e * d)
-        samples = bspline.evaluate(flat, np.linspace(0, 1, 24)).reshape(24, e, d)
-        rotations, _ = self.encoding.decode(samples.transpose(1, 0, 2), self.fps)
+        rotations, _ = self.encoding.decode(self._example_samples(24), self.fps)
         effectors = [c.effector for c in self.constraints]
         return LegChains.build(self.skeleton, effectors, rotations.reshape(-1, *rotations.shape[-2:]))
 
@@ -310,11 +313,8 @@ class Verb:
         """
         from ..kinematics.fk import forward_kinematics  # (kinematics does not import verbs; kept local all the same)
 
-        e, n, d = self.coefficients.shape
-        flat = self.coefficients.transpose(1, 0, 2).reshape(n, e * d)
-        s = LIFT_SAMPLES + 1
-        samples = bspline.evaluate(flat, np.linspace(0, 1, s)).reshape(s, e, d).transpose(1, 0, 2)
-        shift = np.array(self.seam_table[:e])
+        samples = self._example_samples(LIFT_SAMPLES + 1)
+        shift = np.array(self.seam_table[: len(samples)])
         shift[:, :VELOCITIES] = 0.0  # (sampling shifts the pose's columns by the laps' seams, not the velocities)
         laps = np.stack([samples + lap * shift[:, None] for lap in (-1, 0, 1)])
         rot, trans = self.encoding.decode_pose(laps, np.zeros(3))
