@@ -97,6 +97,11 @@ def plant(feet: GraphFeet, frame: Frame, dt: float, alone: np.ndarray):
     swinging = np.where(frame.held, 0.0, frame.swing)
     swing = np.where(feet.replanting, _step_lift(p, swinging), frame.swing)  # a foot re-placed steps: at the least lift
     out = p.step(frame.rotations, frame.translations, None, dt, (held, frame.roll, swing, frame.lifts))
+    # A foot the planter let go out of its leg's reach (``spent``) that the verbs hold flat is re-placed, a step
+    # from its release: it stayed free until the verbs' hold ended, and a stand's, a bow's or a guide's never does
+    # (after a stop cut short by a gesture it followed the body along the floor for the rest of the standing: 60 cm
+    # at once, then 10 cm at each later gesture).
+    feet.replanting |= p.spent & (p.mode == FREE) & frame.held & (frame.roll == 0.0)
     if feet.replanting.any():
         # Let go this frame (free, its height's offset just begun): its horizontal offset starts STEP_DELAY later,
         # at rest until then (the lift comes first); its height does not wait.

@@ -100,7 +100,7 @@ def _start(state: GraphState, c: int, late: float, inertial: bool = False) -> No
     sync_head(state, c)
     t = graph.transitions[k]
     a, b = graph.verbs[t.source], graph.verbs[t.target]
-    (sa, ea), (sb, eb) = t.source_region, t.target_region
+    (sa, ea), (sb, eb) = designed = t.source_region, t.target_region
     g = float(state.g[c])
     whole = False  # B's region played whole, at no more than its own speed
     if g > sa + _LATE:  # the region has begun already (a one-shot verb past it, or a loop begun late)
@@ -117,15 +117,22 @@ def _start(state: GraphState, c: int, late: float, inertial: bool = False) -> No
     keys_a = _sampling(state, t.source, 0).keytimes[row]
     keys_b = _sampling(state, t.target, 1).keytimes[row]
     length = float(duration((sa, ea), (sb, eb), keys_a, keys_b, a.generic_keytimes, b.generic_keytimes)[0])
+    cut = inertial or t.blend == "inertial"  # B at once: A is not played through its region
     if whole:  # not shorter than B's region: B's clock never runs faster than its own
         clocks_b = clock_of(np.array([[sb, eb]]), keys_b, b.generic_keytimes)[0]
         length = max(length, float(clocks_b[1] - clocks_b[0]))
+        if not cut:
+            # As long as the blend begun where A's region begins: a command late in a one-shot's region does not
+            # shorten it (a stand's last tenth into a gesture's lead-in took 0.15 s, the trunk at 2x its verbs' own);
+            # A's clock runs slower through what is left of its region instead.
+            whole_a = duration(designed[0], (sb, eb), keys_a, keys_b, a.generic_keytimes, b.generic_keytimes)[0]
+            length = max(length, float(whole_a))
     state.active[c], state.into[c] = k, t.target
     state.regions[c] = (sa, ea, sb, eb)
     state.length[c] = max(length, MIN_LOOP if t.source == t.target else MIN_DURATION)
     state.beta[c] = min(late / state.length[c], 1.0)
     state.g_into[c] = sb
-    state.inertial[c] = inertial or t.blend == "inertial"
+    state.inertial[c] = cut
     if state.inertial[c]:  # B at once, the pose shown decaying onto it
         state.rebase[c] = True
         state.offset_halflife[c] = max(INERTIAL_HALFLIFE * state.length[c], INTERRUPT_HALFLIFE if inertial else 0.0)

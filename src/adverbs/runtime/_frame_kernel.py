@@ -174,8 +174,12 @@ def _start(c, late, k, verbs, transitions, caches, state, k_):  # pragma: no cov
     length_a = _clock_of(ea, source, 0, c, verbs, caches) - _clock_of(sa, source, 0, c, verbs, caches)
     length_b = _clock_of(eb, target, 1, c, verbs, caches) - _clock_of(sb, target, 1, c, verbs, caches)
     duration = 0.5 * (length_a + length_b)
-    if whole:
+    if whole:  # not shorter than B's region; a cosine blend as long as begun where A's region begins
         duration = max(duration, length_b)
+    if whole and not t_inertial[k]:
+        whole_a = (_clock_of(t_regions[k, 1], source, 0, c, verbs, caches)
+                   - _clock_of(t_regions[k, 0], source, 0, c, verbs, caches))  # fmt: skip
+        duration = max(duration, 0.5 * (whole_a + length_b))
     active[c], into[c] = k, target
     regions[c, 0], regions[c, 1], regions[c, 2], regions[c, 3] = sa, ea, sb, eb
     length[c] = max(duration, k_[_MIN_LOOP] if source == target else k_[_MIN_DURATION])  # a loop: what is left
@@ -624,9 +628,11 @@ def _plant(lo, hi, dt, outputs, planted, feet, start, k_):  # pragma: no cover -
         parents, rot[s], trans[s], generic[s], inside[s], roll[s], swing[s], lifts[s], True, dts[s], start, times[s], cyclic,
         verb_floor, tips, root, legs, constants, floor, sliced, chain, ik_params, out,
     )  # fmt: skip
-    turn, target, prev_free = st[1], st[2], st[14]
+    turn, target, spent, prev_free = st[1], st[2], st[7], st[14]
     for c in range(lo, hi):
         for i in range(n_l):
+            if spent[c, i] and mode[c, i] == FREE and held[c, i] and roll[c, i] == 0.0:  # let go, held flat
+                replanting[c, i] = True
             if replanting[c, i] and mode[c, i] == FREE and since[c, i, 1] == 0.0:
                 for a in (0, 2):  # let go this frame: it travels once lifted, at rest until then
                     offset[c, i, a] += offset_vel[c, i, a] * k_[_DELAY]
