@@ -344,7 +344,7 @@ def _trunk(graph):
     return [i for i, n in enumerate(graph.skeleton.names) if any(k in n for k in ("Hips", "Spine", "Chest", "Neck", "Head"))]
 
 
-def _gesture_script(seed: int):
+def gesture_script(seed: int):
     """A random script of stands, gestures and walks (cues every 0.6-4 s for 26 s) and its adverbs."""
     rng = np.random.default_rng(seed)
     adverbs = {"valence": float(rng.uniform(-0.6, 0.6)), "energy": float(rng.uniform(-0.4, 0.4))}
@@ -362,7 +362,7 @@ def test_a_gesture_asked_for_late_in_a_stand_blends_as_long_as_one_asked_for_at_
     took 0.15 s, and the trunk turned at 1.9-2.1x its verbs' own fastest (here, and in 11 of 50 idle → guide windows
     of 30 random gesture scripts). It now lasts as long whenever it is asked for (the stand's clock runs slower
     through what is left of its region), and no trunk joint turns faster than 1.5x its verbs' own. Random scripts."""
-    cues, adverbs = _gesture_script(seed)
+    cues, adverbs = gesture_script(seed)
     perf = perform(bandai, cues, seconds=28.0, seed=seed, adverbs=adverbs, start="idle")
     speed = _angular_speed(perf.planted.rotations)[:, _trunk(bandai)].max(axis=1)
     own = max(_angular_speed(perform(bandai, [], seconds=6.0, seed=seed, start=v, adverbs=adverbs).planted.rotations)[1:, _trunk(bandai)].max()
@@ -385,7 +385,7 @@ def test_a_foot_let_go_out_of_reach_is_held_again_where_the_stand_holds_it(banda
     re-placed, a step to where they hold it. A random gesture script (seed 106 of 30 tried at random) where that
     happens: in every transition between standing verbs from a second after the last walk, no toe travels more than
     2 cm along the floor."""
-    cues, adverbs = _gesture_script(106)
+    cues, adverbs = gesture_script(106)
     perf = perform(bandai, cues, seconds=28.0, seed=106, adverbs=adverbs, start="idle")
     pos = perf.planted.global_positions()[:, _toes(bandai)]
     contact = _contact(pos)
@@ -397,3 +397,24 @@ def test_a_foot_let_go_out_of_reach_is_held_again_where_the_stand_holds_it(banda
     for s, t, a, b in entries:
         travel = low_travel(pos, contact, np.arange(a, b))
         assert travel <= 0.02, f"{s}→{t} at {a / FPS:.2f} s: a toe travels {travel * 1000:.0f} mm along the floor"
+
+
+@pytest.mark.parametrize("gesture", ["guide", "bow", "reach"])
+def test_a_stop_asked_for_a_gesture_lands_its_feet_first(bandai, gesture):
+    """A gesture asked for while a walk stops used to cut the stop short: the stand played at once from the pose
+    shown, the body went on at the walk's (decaying) speed under it, and the swinging foot was put down where it
+    was, fast: a toe 16-19 cm along the floor (seed 3, asked 0.335 s after the stop, of 135 stops scanned). The stop
+    now runs to its end, its feet down, and the gesture follows: whenever in the stop it is asked for, no low toe
+    travels more than the walk's own plus 2 cm."""
+    seed = 3
+    walk = perform(bandai, [Cue(0.0, "walk")], seconds=8.0, seed=seed)
+    walking = np.flatnonzero((walk.active < 0) & (walk.verb == bandai.verb_index("walk")))
+    own_pos = walk.planted.global_positions()[:, _toes(bandai)]
+    own = low_travel(own_pos, _contact(own_pos), walking[walking > 90])
+    for delay in (0.067, 0.2, 0.335, 0.47):
+        cues = [Cue(0.3, "walk"), Cue(3.0, "idle"), Cue(3.0 + delay, gesture)]
+        perf = perform(bandai, cues, seconds=7.0, seed=seed, start="idle")
+        pos = perf.planted.global_positions()[:, _toes(bandai)]
+        travel = low_travel(pos, _contact(pos), np.arange(85, len(pos)))
+        assert travel <= own + 0.02, f"asked {delay:.3f} s into the stop: a low toe travels {travel * 1000:.0f} mm"
+        assert bandai.verb_index(gesture) in perf.verb[int((3.0 + delay) * FPS) :], f"no {gesture} after the stop"

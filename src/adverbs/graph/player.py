@@ -25,7 +25,8 @@ and a generic time ``g`` in it — or is in a transition from one instance (A) t
   interruptible transition: back to the cycle being left, the blend turns back (both verbs play on,
   the weight climbs back by the same cosine law); otherwise B plays on alone from the pose shown (an
   offset, half-life at least ``INTERRUPT_HALFLIFE``) and the new path starts from B — at once, and
-  inertially, when B is a one-shot verb whose way on is already open.
+  inertially, when B is a one-shot verb whose way on is already open. A stop (a cycle blending into a
+  one-shot) is not cut short: the new path starts from B once the stop has put its feet down.
 * **Feet.** In a cosine blend a foot is held where both verbs hold it, where A does and still has the weight,
   or where B does and A has begun to land it (:func:`hold_phases`). Blending two stances would slide a held
   foot, so the body is carried by the held feet's slip instead (:func:`_keep_feet`). :class:`GraphFeet` re-places a foot a

@@ -2,7 +2,8 @@
 fewest transitions to the verb asked for (:func:`command`); a transition starts when the verb reaches its region
 (:func:`_start`) and ends when ``β`` reaches 1 (:func:`_finish`); a command during an interruptible transition
 turns the blend back (:func:`_reverse`) or lets the verb being entered play on alone from the pose shown
-(:func:`_interrupt`); the latency of a command is noted when its verb plays alone (:func:`_arrived`).
+(:func:`_interrupt`), but for a stop (a cycle into a one-shot), which ends first; the latency of a command is
+noted when its verb plays alone (:func:`_arrived`).
 """
 
 from __future__ import annotations
@@ -46,13 +47,17 @@ def _command(state: GraphState, c: int, verb: str | int, stay: bool) -> list[int
             _reverse(state, c)  # back to the cycle it was leaving, by the same blend
             state.queue[c] = []
             return []
-        _interrupt(state, c)
-        state.queue[c] = list(path)
-        first = graph.transitions[path[0]]
-        if not graph.verbs[first.source].cyclic and state.g[c] >= first.source_region[0]:
-            # The way on from the verb being entered is open already: take it at once, from the pose shown.
-            _start(state, c, 0.0, inertial=True)
-            return list(path)
+        # A stop (a cycle blending into a one-shot) runs on: the path goes on from the verb it enters, once its feet
+        # are down. Cut short, the body went on at the cycle's speed (decaying) under the one-shot's pose.
+        stopping = graph.verbs[state.verb[c]].cyclic and not graph.verbs[state.into[c]].cyclic and not state.inertial[c]
+        if not stopping:
+            _interrupt(state, c)
+            state.queue[c] = list(path)
+            first = graph.transitions[path[0]]
+            if not graph.verbs[first.source].cyclic and state.g[c] >= first.source_region[0]:
+                # The way on from the verb being entered is open already: take it at once, from the pose shown.
+                _start(state, c, 0.0, inertial=True)
+                return list(path)
     state.queue[c] = list(path)
     if state.active[c] < 0:
         _settle_queue(state, c)

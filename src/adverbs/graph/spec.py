@@ -21,6 +21,7 @@ to_region = [0.0, 0.25]               # generic time of "walk"
 likelihood = 1                        # > 0: weight among the ways out of "idle" when nothing is asked
 blend = "cosine"                      # or "inertial": start "walk" at once, decay the pose difference
 interruptible = true                  # a new command during it starts from the current pose at once
+                                      # (a stop, a cycle into a one-shot, always ends first)
 ```
 
 A verb of one example (a bow, a wave) is a verb spec with one ``[[examples]]`` entry and no adverbs.

@@ -49,7 +49,8 @@ class Transition:
     ``source_region`` and ``target_region`` are ``(start, end)`` in generic time; ``blend`` is "cosine"
     (the paper's: both verbs play through the regions, ``α = 0.5 cos(βπ) + 0.5``) or "inertial" (the
     target starts at once and the pose difference decays); ``interruptible``: a new command during it
-    starts from the current pose at once, instead of after it ends; ``added``: the graph made it (a
+    starts from the current pose at once, instead of after it ends (but a stop, a cycle blending into a one-shot,
+    always ends first: its feet land); ``added``: the graph made it (a
     cyclic verb's own loop), the spec did not list it.
     """
 
