@@ -1,7 +1,7 @@
 """Motion at the edges of verbs (issue 32), measured on the frames a performance writes: every kind of transition
 of both shipped graphs, each against its verbs played alone at the adverbs in effect.
 
-    .venv/bin/python benchmarks/edges.py            (a few seconds)
+    .venv/bin/python benchmarks/edges.py            (about 30 seconds)
 
 For each graph, a script that plays every kind of its transitions is performed at a few seeds and adverb points that
 no tuning used; each transition's window (the blend and up to half a second after it, as ``tests/test_edges.py``

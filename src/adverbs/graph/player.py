@@ -362,6 +362,24 @@ def _speeds(state: GraphState, base: _Base, velocity: np.ndarray) -> np.ndarray:
     return out
 
 
+def carry_limits(state: GraphState, rows: np.ndarray) -> np.ndarray:
+    """How fast the body of each creature of ``rows``, carried by its held feet under a decaying offset, may change
+    its velocity ``(n,)``, m/s²: ``CARRY_ACCELERATION``, or less where its verbs' own bodies never speed up that hard:
+    the examples' fastest root accelerations (``Verb.root_accelerations``) blended with the creature's weights and kept
+    within theirs, the larger of the verb playing's and the one being entered's. A stand sways at 0.1-0.2 m/s², a bow
+    at 0.6-0.8: an interruption's carry at 4 m/s² jumped a standing body at 2-7x its verbs' own."""
+    out = np.zeros(len(rows))
+    for slot, verbs in ((0, state.verb), (1, state.into)):
+        for i, c in enumerate(rows):
+            v = int(verbs[c])
+            if v < 0:
+                continue
+            acc = state.graph.verbs[v].root_accelerations
+            w = _sampling(state, v, slot).weights[c, : len(acc)]
+            out[i] = max(out[i], float(np.clip(w @ acc, acc.min(), acc.max())))
+    return np.minimum(out, CARRY_ACCELERATION)
+
+
 def _keep_feet(
     state: GraphState, rot: np.ndarray, trans: np.ndarray, root: np.ndarray, held: np.ndarray, roll: np.ndarray,
     offset: np.ndarray, speed: np.ndarray, dt: float,
@@ -377,7 +395,7 @@ def _keep_feet(
     decaying offset (an inertial blend, an interruption) moves the legs as a blend does, and the body is carried
     the same way. The carried body goes along the root's advance at ``speed (C,)`` m/s (:func:`_speeds`) in a cosine
     blend (the blend of the verbs' own), and at no less than it under a decaying offset (the root's own), its velocity
-    changing no faster than ``CARRY_ACCELERATION`` there. Carried
+    changing no faster than :func:`carry_limits` allows there. Carried
     by the whole slip, a run braked nearly to a standstill on its way into a walk and lurched on, a start threw
     the body past the walk's speed, and a run for a second after an interruption dipped to 1.9 m/s and lurched on
     at 2.6 (root acceleration 18-22 m/s², the run's own 6). The planter's IK takes up the
@@ -398,10 +416,10 @@ def _keep_feet(
     # carry ends with the offset, not at once when it is over (a bow whose valence eased under it drifted 0.1 m/s,
     # then stopped in one frame: 4 m/s², its own 0.4).
     fade = np.where(cosine, 1.0, _spring(1.0, 0.0, state.offset_since[rows], state.offset_halflife[rows]))
-    # ... and its velocity changes from the one shown no faster than CARRY_ACCELERATION: a cosine blend had held the
+    # ... and its velocity changes from the one shown no faster than its verbs' own allow (carry_limits): a cosine blend had held the
     # body to its speed while the slip ran ahead, and a command that cut it short let the whole slip carry it at once
     # (a start cut short two frames in went from 0.07 to 0.37 m/s in a frame, 13 m/s²).
-    change = np.where(cosine, np.inf, CARRY_ACCELERATION)
+    change = np.where(cosine, np.inf, carry_limits(state, rows))
     keep_feet(
         graph.skeleton.parents, graph.feet_array, rows, w, rot, trans, state.shown[0], state.shown[1],
         np.ascontiguousarray(state.shown[2]), graph.verbs[0].encoding.body_root, graph.inverse_above_body, root,

@@ -26,7 +26,8 @@ Arguments come in tuples (``frame.FramePass`` lays them out once):
   ``reference (V, J, 4)``, ``translated``, ``base (V, J, 3)``, ``body (V,)``, ``has_parent (V,)``, ``parent_inv
   (V, 4)``, ``parent_pos (V, 3)``), the holds (``opens``, ``cols`` in the graph's feet, ``has_holds (V,)``) and
   the examples' foot lifts (``Verb.lift_table`` ``(3, E, S + 1, L)``: flat, offsets, shapes ``(V, 3)`` of
-  ``(E, S + 1, L)``).
+  ``(E, S + 1, L)``), and the examples' fastest root accelerations (``Verb.root_accelerations`` ``(E,)``: flat,
+  offsets).
 * ``transitions``: ``regions (T, 4)`` (source start and end, target start and end), ``target (T,)``,
   ``inertial (T,)``, ``between (T,)`` (from one verb to another).
 * ``caches = (tables, offsets)``: each creature's ``weights``, ``keytimes``, ``seam``, ``goal`` and hold times of
@@ -357,6 +358,25 @@ def _phases(v, slot, c, g, verbs, caches, held, roll, swing, lifts):  # pragma: 
             lifts[cols[i]] = min(max(acc, lo), hi)
 
 
+@njit(cache=True, inline="always")
+def _carry_limit(c, verbs, caches, state, k_):  # pragma: no cover - compiled
+    """``player.carry_limits`` of creature ``c``: its verbs' examples' fastest root accelerations blended with its
+    weights (within theirs), the larger of the verb playing's and the one being entered's, at most ``_CARRY``."""
+    out = 0.0
+    for slot in range(2):
+        v = state[0][c] if slot == 0 else state[2][c]
+        if v < 0:
+            continue
+        acc = _part(verbs[27], verbs[28], v)
+        w = _columns(caches, slot, v, 0)[c]
+        blended, lo, hi = 0.0, np.inf, -np.inf
+        for e in range(acc.shape[0]):
+            blended += w[e] * acc[e]
+            lo, hi = min(lo, acc[e]), max(hi, acc[e])
+        out = max(out, min(max(blended, lo), hi))
+    return min(out, k_[_CARRY])
+
+
 @njit(cache=True)
 def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, buffers, outputs, k_,
               scratch):  # pragma: no cover  # fmt: skip
@@ -474,7 +494,7 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
             for i in range(feet.shape[0]):
                 wts[i] = (1.0 if (held[c, i] and held_before[c, i]) else 0.0) * (1.0 - roll[c, i])
             # In a cosine blend the blend of the verbs' own speeds, else at least the root's own (player._speeds).
-            lo, hi, change = math.hypot(vel[0], vel[1]), np.inf, k_[_CARRY]
+            lo, hi, change = math.hypot(vel[0], vel[1]), np.inf, _carry_limit(c, verbs, caches, state, k_)
             fade = 1.0  # under a decaying offset alone, as much of the slip as is left of the offset (player._keep_feet)
             if cosine:
                 lo = hi = blend_speed
