@@ -70,6 +70,7 @@ from .state import _LATE, GraphState
 
 LANDS = 1.0  # a foot B holds and A swings lands once A's swing lift is below this: as soon as A begins to land it
 CARRY_ACCELERATION = 4.0  # m/s²: under a decaying offset the carried body's velocity changes no faster than this
+# (nor than its verbs' own bodies do: carry_limits)
 
 
 @dataclass
@@ -416,9 +417,9 @@ def _keep_feet(
     # carry ends with the offset, not at once when it is over (a bow whose valence eased under it drifted 0.1 m/s,
     # then stopped in one frame: 4 m/s², its own 0.4).
     fade = np.where(cosine, 1.0, _spring(1.0, 0.0, state.offset_since[rows], state.offset_halflife[rows]))
-    # ... and its velocity changes from the one shown no faster than its verbs' own allow (carry_limits): a cosine blend had held the
-    # body to its speed while the slip ran ahead, and a command that cut it short let the whole slip carry it at once
-    # (a start cut short two frames in went from 0.07 to 0.37 m/s in a frame, 13 m/s²).
+    # ... and its velocity changes from the one shown no faster than its verbs' own allow (carry_limits): a cosine
+    # blend had held the body to its speed while the slip ran ahead, and a command that cut it short let the whole
+    # slip carry it at once (a start cut short two frames in went from 0.07 to 0.37 m/s in a frame, 13 m/s²).
     change = np.where(cosine, np.inf, carry_limits(state, rows))
     keep_feet(
         graph.skeleton.parents, graph.feet_array, rows, w, rot, trans, state.shown[0], state.shown[1],
