@@ -321,8 +321,8 @@ def test_a_start_cut_short_by_a_command_speeds_up_as_the_walk_does(bandai, seed,
     body to its speed, along the walk's way, while the held foot's slip ran ahead; the interruption let the whole
     slip carry it at once, at its own speed and way: 0.07 to 0.37 m/s sideways in a frame, then forward, 11-15 m/s²
     against the walk's own 6.5-9.4 (1.6-1.7x here). Carried by its feet under the decaying offset, the body's velocity
-    now changes by at most ``player.CARRY_ACCELERATION``. Seeds and points drawn at random (of 12 tried, 4 failed,
-    these 3 by the most); nothing was tuned on them."""
+    now changes no faster than its verbs' own bodies do (``player.carry_limits``). Seeds and points drawn at random
+    (of 12 tried, 4 failed, these 3 by the most); nothing was tuned on them."""
     from test_transitions import _root_acceleration
 
     walk = bandai.verb_index("walk")
@@ -425,10 +425,10 @@ def test_a_standing_body_carried_by_its_feet_speeds_up_no_harder_than_its_verbs(
     """Under the decaying offset an interruption leaves, the body carried by its held feet changed its velocity at up
     to 4 m/s², a walk's pace: a stand cut short into a bow, a reach or a wave jumped the body at 1.6-7x its verbs' own
     (a stand sways at 0.1-0.2 m/s², a bow at 0.6-0.8). Its limit is now its verbs' own, the examples' fastest root
-    accelerations blended at its adverbs (``player.carry_limits``). Random gesture scripts (of 30 tried, these broke
-    the bound by the most, at 6.9, 4.8 and 7.0x): no transition between standing verbs accelerates the body root more
-    than 2x its verbs' own. (Issue 32 asks 1.5x; these reach 1.6-1.8x where a cosine blend carries the body at the
-    blend of its verbs' speeds along the root's way, and a stand's sway reverses that way in one frame.)"""
+    accelerations blended at its adverbs (``player.carry_limits``), held whether or not a foot is: a carry that ended
+    (its feet let go) had put the body back on its own velocity in one frame. Random gesture scripts (of 30 tried,
+    these broke the bound by the most, at 6.9, 4.8 and 7.0x): no transition between standing verbs accelerates the
+    body root more than 1.5x its verbs' own."""
     from test_transitions import _root_acceleration
 
     cues, adverbs = gesture_script(seed)
@@ -441,4 +441,4 @@ def test_a_standing_body_carried_by_its_feet_speeds_up_no_harder_than_its_verbs(
     assert len(entries) >= 8, entries
     for s, t, a, b in entries:
         ref = max(own[s], own[t])
-        assert acc[a:b].max() <= 2.0 * ref, f"{s}→{t} at {a / FPS:.2f} s: root at {acc[a:b].max() / ref:.2f}x its verbs' own"
+        assert acc[a:b].max() <= 1.5 * ref, f"{s}→{t} at {a / FPS:.2f} s: root at {acc[a:b].max() / ref:.2f}x its verbs' own"

@@ -46,10 +46,11 @@ def keep_feet_row(parents, tips, weights, rot, trans, shown_rot, shown_trans, bo
     """One creature of :func:`keep_feet`: its pose ``rot (1, J, 4)``, ``trans (1, J, 3)``, the one shown before, its
     ``root (3,)``; ``now_*``, ``was_*``: forward kinematics' scratch ``(1, J, 3)``, ``(1, J, 4)``.
 
-    Carried by held feet, the root's velocity is first held within ``change`` m/s² of the one shown before, ``(svx,
-    svz, sturn)`` (sideways, forward, turn; its step ended at heading ``h0``): under a decaying offset the body goes
-    where its feet take it, only not at once (``inf``: at once). Its step from ``(x0, z0)`` is then held to ``lo`` to ``hi`` m/s, along the
-    root's advance by the blended velocities (``0`` and ``inf``: any). In a cosine blend of two verbs the graph holds it to the blend of
+    Its step from ``(x0, z0)`` (carried by held feet, or the root's own) is held to ``lo`` to ``hi`` m/s, along the
+    root's advance by the blended velocities (``0`` and ``inf``: any); then its velocity is held within ``change``
+    m/s² of the one shown before, ``(svx, svz, sturn)`` (sideways, forward, turn; its step ended at heading ``h0``),
+    held feet or none: under a decaying offset the body goes where its feet take it, only not at once (``inf``: at
+    once), and a carry that ends eases back to the root's own velocity. In a cosine blend of two verbs the graph holds it to the blend of
     their own speeds, ``α |v_A| + (1 − α) |v_B|``: carried by the whole slip of feet the verbs stand at different
     places under the body, a run braked nearly to a standstill on its way into a walk, and a start threw the body
     past the walk's speed. The legs take up the rest (the planter holds the feet, and re-places one left behind).
@@ -75,14 +76,6 @@ def keep_feet_row(parents, tips, weights, rot, trans, shown_rot, shown_trans, bo
             sz *= fade
     dx = root[0] + sx - x0
     dz = root[1] + sz - z0
-    if total > 0.0 and math.isfinite(change):  # the velocity shown before, in the world: its step's heading halfway
-        px, _, pz = _rotate_about_y(h0 - 0.5 * sturn * dt, svx, 0.0, svz)
-        ex, ez = dx - px * dt, dz - pz * dt
-        e = math.sqrt(ex * ex + ez * ez)
-        if e > change * dt * dt:
-            k = change * dt * dt / e
-            dx, dz = px * dt + ex * k, pz * dt + ez * k
-            sx, sz = x0 + dx - root[0], z0 + dz - root[1]
     d = math.sqrt(dx * dx + dz * dz)
     if d > hi * dt or d < lo * dt:  # along the verbs' own way (the root's advance), else the slip's
         ax, az = root[0] - x0, root[1] - z0
@@ -94,8 +87,18 @@ def keep_feet_row(parents, tips, weights, rot, trans, shown_rot, shown_trans, bo
         else:
             ux, uz = 0.0, 0.0
         m = min(max(d, lo * dt), hi * dt)
-        sx = x0 + ux * m - root[0]
-        sz = z0 + uz * m - root[1]
+        dx, dz = ux * m, uz * m
+        sx, sz = x0 + dx - root[0], z0 + dz - root[1]
+    # Last, and whether or not a foot is held: a carry that ends (its feet let go, re-placed) does not jump the body
+    # back to its own velocity in one frame, nor the speed floor reverse it.
+    if math.isfinite(change):  # the velocity shown before, in the world: its step's heading halfway
+        px, _, pz = _rotate_about_y(h0 - 0.5 * sturn * dt, svx, 0.0, svz)
+        ex, ez = dx - px * dt, dz - pz * dt
+        e = math.sqrt(ex * ex + ez * ez)
+        if e > change * dt * dt:
+            k = change * dt * dt / e
+            dx, dz = px * dt + ex * k, pz * dt + ez * k
+            sx, sz = x0 + dx - root[0], z0 + dz - root[1]
     if sx == 0.0 and sz == 0.0:
         return
     root[0] += sx

@@ -69,8 +69,6 @@ from .queue import _finish, _start
 from .state import _LATE, GraphState
 
 LANDS = 1.0  # a foot B holds and A swings lands once A's swing lift is below this: as soon as A begins to land it
-CARRY_ACCELERATION = 4.0  # m/s²: under a decaying offset the carried body's velocity changes no faster than this
-# (nor than its verbs' own bodies do: carry_limits)
 
 
 @dataclass
@@ -365,10 +363,11 @@ def _speeds(state: GraphState, base: _Base, velocity: np.ndarray) -> np.ndarray:
 
 def carry_limits(state: GraphState, rows: np.ndarray) -> np.ndarray:
     """How fast the body of each creature of ``rows``, carried by its held feet under a decaying offset, may change
-    its velocity ``(n,)``, m/s²: ``CARRY_ACCELERATION``, or less where its verbs' own bodies never speed up that hard:
-    the examples' fastest root accelerations (``Verb.root_accelerations``) blended with the creature's weights and kept
-    within theirs, the larger of the verb playing's and the one being entered's. A stand sways at 0.1-0.2 m/s², a bow
-    at 0.6-0.8: an interruption's carry at 4 m/s² jumped a standing body at 2-7x its verbs' own."""
+    its velocity ``(n,)``, m/s²: no faster than its verbs' own bodies ever do, the examples' fastest root
+    accelerations (``Verb.root_accelerations``) blended with the creature's weights and kept within theirs, the larger
+    of the verb playing's and the one being entered's. A stand sways at 0.1-0.2 m/s², a bow at 0.6-0.8, a walk at
+    3-18. Carried at a walk's pace (4 m/s², the limit before), an interruption jumped a standing body at 2-7x its
+    verbs' own."""
     out = np.zeros(len(rows))
     for slot, verbs in ((0, state.verb), (1, state.into)):
         for i, c in enumerate(rows):
@@ -378,7 +377,7 @@ def carry_limits(state: GraphState, rows: np.ndarray) -> np.ndarray:
             acc = state.graph.verbs[v].root_accelerations
             w = _sampling(state, v, slot).weights[c, : len(acc)]
             out[i] = max(out[i], float(np.clip(w @ acc, acc.min(), acc.max())))
-    return np.minimum(out, CARRY_ACCELERATION)
+    return out
 
 
 def _keep_feet(

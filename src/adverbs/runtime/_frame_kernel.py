@@ -58,7 +58,6 @@ STARTED, FINISHED = 1, 2  # events: a transition started, or finished, this fram
 FREE, BALL = 0, 2  # planting.FREE, planting.BALL
 # Where each constant sits in ``k_`` (see frame.FramePass).
 _LATE, _MIN_DURATION, _INERTIAL, _LN2, _REPLANT, _REPLANTED, _SWING, _LIFT, _LANDS, _LEFT_BEHIND, _RISE, _DELAY, _LAND, _MIN_LOOP = range(14)
-_CARRY = 14
 
 
 # ----- the tables, packed: per verb, a slice of a flat array (see frame.tables and FramePass) ------------------
@@ -359,9 +358,9 @@ def _phases(v, slot, c, g, verbs, caches, held, roll, swing, lifts):  # pragma: 
 
 
 @njit(cache=True, inline="always")
-def _carry_limit(c, verbs, caches, state, k_):  # pragma: no cover - compiled
+def _carry_limit(c, verbs, caches, state):  # pragma: no cover - compiled
     """``player.carry_limits`` of creature ``c``: its verbs' examples' fastest root accelerations blended with its
-    weights (within theirs), the larger of the verb playing's and the one being entered's, at most ``_CARRY``."""
+    weights (within theirs), the larger of the verb playing's and the one being entered's."""
     out = 0.0
     for slot in range(2):
         v = state[0][c] if slot == 0 else state[2][c]
@@ -374,7 +373,7 @@ def _carry_limit(c, verbs, caches, state, k_):  # pragma: no cover - compiled
             blended += w[e] * acc[e]
             lo, hi = min(lo, acc[e]), max(hi, acc[e])
         out = max(out, min(max(blended, lo), hi))
-    return min(out, k_[_CARRY])
+    return out
 
 
 @njit(cache=True)
@@ -494,7 +493,7 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
             for i in range(feet.shape[0]):
                 wts[i] = (1.0 if (held[c, i] and held_before[c, i]) else 0.0) * (1.0 - roll[c, i])
             # In a cosine blend the blend of the verbs' own speeds, else at least the root's own (player._speeds).
-            lo, hi, change = math.hypot(vel[0], vel[1]), np.inf, _carry_limit(c, verbs, caches, state, k_)
+            lo, hi, change = math.hypot(vel[0], vel[1]), np.inf, _carry_limit(c, verbs, caches, state)
             fade = 1.0  # under a decaying offset alone, as much of the slip as is left of the offset (player._keep_feet)
             if cosine:
                 lo = hi = blend_speed
