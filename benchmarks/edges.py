@@ -107,17 +107,22 @@ def window(m: Measured, ref: dict[str, float], a: int, b: int) -> list[float]:
     return row
 
 
-def measure(name: str) -> dict[tuple[str, str], list[float]]:
-    """Each kind of transition of graph ``name``: its worst of every measure over every window and run."""
+def _graph(name: str):
+    """Graph ``name`` and what :class:`Measured` reads of its skeleton: its toes, parts and pelvis."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", AdverbsWarning)
         graph = load_graph(GRAPHS / f"{name}.toml")
-    toe_names, seconds, script, points = RUNS[name]
     names = graph.skeleton.names
-    toes = [names.index(n) for n in toe_names]
+    toes = [names.index(n) for n in RUNS[name][0]]
     parts = {p: [i for i, n in enumerate(names) if any(k in n.lower() for k in keys)] for p, keys in PARTS.items()}
     pelvis = next(v for v in graph.verbs if v.constraints).leg_chains.above[-1]
-    args = (toes, parts, pelvis)
+    return graph, (toes, parts, pelvis)
+
+
+def measure(name: str) -> dict[tuple[str, str], list[float]]:
+    """Each kind of transition of graph ``name``: its worst of every measure over every window and run."""
+    graph, args = _graph(name)
+    _, seconds, script, points = RUNS[name]
     worst: dict[tuple[str, str], list[float]] = {}
     for seed, adverbs in points:
         cues = [Cue(t, adverbs=v) if isinstance(v, dict) else Cue(t, v) for t, v in script]
@@ -141,14 +146,7 @@ BOUNDS = (0.02, 1.5, 1.5, 1.5, 1.5, 0.0)  # toe over own (m), arms, legs, trunk,
 def random_scripts(seeds=RANDOM_SEEDS) -> dict[tuple[str, str], list[list[float]]]:
     """Every window of every kind over the random scripts: toe over own, arms, legs, trunk, root acc, and how far the
     hips' range is over 1.2x the unplanted's plus 2 mm."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", AdverbsWarning)
-        graph = load_graph(GRAPHS / "bandai.toml")
-    names = graph.skeleton.names
-    toes = [names.index(n) for n in RUNS["bandai"][0]]
-    parts = {p: [i for i, n in enumerate(names) if any(k in n.lower() for k in keys)] for p, keys in PARTS.items()}
-    pelvis = next(v for v in graph.verbs if v.constraints).leg_chains.above[-1]
-    args = (toes, parts, pelvis)
+    graph, args = _graph("bandai")
     out: dict[tuple[str, str], list[list[float]]] = {}
     for seed in seeds:
         cues, adverbs = gesture_script(seed)

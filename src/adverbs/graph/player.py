@@ -369,14 +369,12 @@ def carry_limits(state: GraphState, rows: np.ndarray) -> np.ndarray:
     3-18. Carried at a walk's pace (4 m/s², the limit before), an interruption jumped a standing body at 2-7x its
     verbs' own."""
     out = np.zeros(len(rows))
-    for slot, verbs in ((0, state.verb), (1, state.into)):
-        for i, c in enumerate(rows):
-            v = int(verbs[c])
-            if v < 0:
-                continue
+    for slot, verbs in ((0, state.verb[rows]), (1, state.into[rows])):
+        for v in np.unique(verbs[verbs >= 0]):
+            mine = verbs == v
             acc = state.graph.verbs[v].root_accelerations
-            w = _sampling(state, v, slot).weights[c, : len(acc)]
-            out[i] = max(out[i], float(np.clip(w @ acc, acc.min(), acc.max())))
+            w = _sampling(state, int(v), slot).weights[rows[mine], : len(acc)]
+            out[mine] = np.maximum(out[mine], np.clip(w @ acc, acc.min(), acc.max()))
     return out
 
 

@@ -105,7 +105,7 @@ def _start(state: GraphState, c: int, late: float, inertial: bool = False) -> No
     sync_head(state, c)
     t = graph.transitions[k]
     a, b = graph.verbs[t.source], graph.verbs[t.target]
-    (sa, ea), (sb, eb) = designed = t.source_region, t.target_region
+    (sa, ea), (sb, eb) = t.source_region, t.target_region
     g = float(state.g[c])
     whole = False  # B's region played whole, at no more than its own speed
     if g > sa + _LATE:  # the region has begun already (a one-shot verb past it, or a loop begun late)
@@ -130,7 +130,7 @@ def _start(state: GraphState, c: int, late: float, inertial: bool = False) -> No
             # As long as the blend begun where A's region begins: a command late in a one-shot's region does not
             # shorten it (a stand's last tenth into a gesture's lead-in took 0.15 s, the trunk at 2x its verbs' own);
             # A's clock runs slower through what is left of its region instead.
-            whole_a = duration(designed[0], (sb, eb), keys_a, keys_b, a.generic_keytimes, b.generic_keytimes)[0]
+            whole_a = duration(t.source_region, (sb, eb), keys_a, keys_b, a.generic_keytimes, b.generic_keytimes)[0]
             length = max(length, float(whole_a))
     state.active[c], state.into[c] = k, t.target
     state.regions[c] = (sa, ea, sb, eb)

@@ -339,7 +339,7 @@ class Verb:
         generic = np.linspace(0.0, 1.0, ACCELERATION_SAMPLES)
         out = np.empty(len(samples))
         for e, dofs in enumerate(samples):
-            step = np.diff(np.interp(generic, self.generic_keytimes, self.keytimes_table[e]))
+            step = np.diff(timewarp.clock_time(generic, self.keytimes_table[e], self.generic_keytimes))
             change = np.diff(dofs[:, :2], axis=0) / step[:, None]
             mid = 0.5 * (dofs[1:, :3] + dofs[:-1, :3])
             out[e] = np.max(np.hypot(change[:, 0], change[:, 1]) + np.abs(mid[:, 2]) * np.hypot(mid[:, 0], mid[:, 1]))
