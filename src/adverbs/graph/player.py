@@ -417,7 +417,8 @@ def _keep_feet(
     # ... and its velocity changes from the one shown no faster than its verbs' own allow (carry_limits): a cosine
     # blend had held the body to its speed while the slip ran ahead, and a command that cut it short let the whole
     # slip carry it at once (a start cut short two frames in went from 0.07 to 0.37 m/s in a frame, 13 m/s²).
-    change = np.where(cosine, np.inf, carry_limits(state, rows))
+    change = np.full(len(rows), np.inf)
+    change[~cosine] = carry_limits(state, rows[~cosine])
     keep_feet(
         graph.skeleton.parents, graph.feet_array, rows, w, rot, trans, state.shown[0], state.shown[1],
         np.ascontiguousarray(state.shown[2]), graph.verbs[0].encoding.body_root, graph.inverse_above_body, root,

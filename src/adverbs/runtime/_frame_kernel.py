@@ -493,12 +493,12 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
             for i in range(feet.shape[0]):
                 wts[i] = (1.0 if (held[c, i] and held_before[c, i]) else 0.0) * (1.0 - roll[c, i])
             # In a cosine blend the blend of the verbs' own speeds, else at least the root's own (player._speeds).
-            lo, hi, change = math.hypot(vel[0], vel[1]), np.inf, _carry_limit(c, verbs, caches, state)
+            lo, hi, change = math.hypot(vel[0], vel[1]), np.inf, np.inf
             fade = 1.0  # under a decaying offset alone, as much of the slip as is left of the offset (player._keep_feet)
             if cosine:
                 lo = hi = blend_speed
-                change = np.inf
             else:
+                change = _carry_limit(c, verbs, caches, state)
                 fade = spring(1.0, 0.0, offset_since[c], offset_halflife[c], k_[_LN2])
             keep_feet_row(
                 parents, feet, wts, rot[c : c + 1], trans[c : c + 1], shown_rot[c : c + 1], shown_trans[c : c + 1], body,
