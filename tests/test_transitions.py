@@ -85,6 +85,23 @@ def _own(graph, verb, toes, seed, adverbs):
     }
 
 
+@pytest.mark.parametrize("name, verb", [("cmu", "walk"), ("cmu", "run"), ("bandai", "walk"), ("bandai", "idle"), ("bandai", "bow")])
+def test_a_verb_played_alone_stays_in_it(graphs, name, verb):
+    """``perform(stay=True)``, the verbs' own every bound here is measured against: the verb plays on through its
+    loops (a gesture into the stand, where it stays); the same seed without ``stay`` wanders the graph by likelihood
+    (at these seeds into another verb: the reference the tests and the benchmark used until session 43)."""
+    graph = graphs[name]
+    alone = perform(graph, [], seconds=20.0, seed=5, start=verb, stay=True)
+    then = {"bow": "idle"}.get(verb, verb)
+    names = [graph.verb_names[v] for v in alone.verb]
+    assert set(names) <= {verb, then} and names[-1] == then, sorted(set(names))
+    assert (alone.active < 0).any() and all(
+        graph.transitions[k].source == graph.transitions[k].target for k in set(alone.active[alone.verb == graph.verb_index(then)]) if k >= 0
+    )
+    wandering = perform(graph, [], seconds=20.0, seed=5, start=verb)
+    assert len({graph.verb_names[v] for v in wandering.verb} - {verb, then}) > 0
+
+
 def _points_in_effect(adverbs, script):
     """``(start, end, adverbs)`` of each adverb point a script plays at, in seconds: from its cue (or 0) until the
     next point's ease is over."""
