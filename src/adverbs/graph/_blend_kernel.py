@@ -51,7 +51,7 @@ def keep_feet_row(parents, tips, weights, rot, trans, shown_rot, shown_trans, bo
     m/s² of the one shown before, ``(svx, svz, sturn)`` (sideways, forward, turn; its step ended at heading ``h0``),
     held feet or none: under a decaying offset the body goes where its feet take it, only not at once (``inf``: at
     once), and a carry that ends eases back to the root's own velocity. In a cosine blend of two verbs the graph
-    holds it to the blend of their own speeds, ``α |v_A| + (1 − α) |v_B|``: carried by the whole slip of feet the verbs stand at different
+    holds it to the speed of the blend of their own velocities, ``|α v_A + (1 − α) v_B|``: carried by the whole slip of feet the verbs stand at different
     places under the body, a run braked nearly to a standstill on its way into a walk, and a start threw the body
     past the walk's speed. The legs take up the rest (the planter holds the feet, and re-places one left behind).
     ``fade``: how much of the slip carries the body (1 in a cosine blend; under a decaying offset, as much as is left

@@ -135,7 +135,10 @@ def _dofs(state: GraphState, verbs: np.ndarray, g: np.ndarray, slot: int, rows: 
         sel = rows[which]
         verb = state.graph.verbs[v]
         s = _sampling(state, v, slot)
-        lap = np.floor(g[sel])
+        # A one-shot's generic time is its own, 0 to 1: at its end (g = 1, where it waits for its next transition)
+        # it shows its last pose. Taken as a lap, it showed its first, and its root its first velocity: a stand that
+        # gesture → stand left at its end snapped to its start pose, and its body stopped, in one frame.
+        lap = np.floor(g[sel]) if verb.cyclic else np.zeros(len(sel))
         local = np.clip(g[sel] - lap, 0.0, 1.0)
         d = run_kernel(verb, s, sel, local, GENERIC)
         if verb.cyclic:  # the pose of another cycle: shifted by the seam (the velocities: see _sample)
@@ -163,6 +166,12 @@ def _sample(state: GraphState, g_a: np.ndarray, g_b: np.ndarray) -> _Base:
     b = {}
     if len(moving):
         rate_a[moving], rate_b[moving] = _rates(state, moving)
+        # A one-shot with nothing of its region left (waiting at its end: a stand a gesture → stand brought there)
+        # stands still in the pose it ends on, but its body goes on at its own last velocity, as its clock would run,
+        # fading with its weight. With its clock's rate (0), the body took B's way at once: at the start of a reach
+        # from a stand's end it turned back on itself in one frame (0.9 m/s², the reach's own 0.15).
+        one_shot = ~np.array([state.graph.verbs[v].cyclic for v in state.verb[moving]], dtype=bool)
+        rate_a[moving[(state.regions[moving, 0] == state.regions[moving, 1]) & one_shot]] = 1.0
         alpha[moving] = np.where(inertial[moving], 0.0, blend_weight(state.beta[moving]))
         b = _dofs(state, state.into, g_b, 1, moving)
     a = _dofs(state, state.verb, g_a, 0, c_all[~inertial])
@@ -324,7 +333,7 @@ def _velocity(old: np.ndarray, new: np.ndarray, dt: float) -> np.ndarray:
 
 
 def _at_blend_speed(state: GraphState, vel: np.ndarray, speed: np.ndarray) -> None:
-    """In a cosine blend the body goes at the blend of the verbs' own speeds (``speed (C,)``, :func:`_speeds`; see
+    """In a cosine blend the body goes at the speed of the blend of the verbs' own velocities (``speed (C,)``, :func:`_speeds`; see
     :func:`_keep_feet`): the velocity ``vel (C, 3)`` it carries into the next step is scaled (in place) to it, so
     the verb left alone when the blend ends goes on from the speed the blend had. The blended velocity itself (each
     verb at its clock's rate in the blend) lagged it: a walk → run ended at 3.0 m/s and its first frame alone went
@@ -345,19 +354,24 @@ def _cosine(state: GraphState) -> np.ndarray:
 
 def _speeds(state: GraphState, base: _Base, velocity: np.ndarray) -> np.ndarray:
     """The speed ``(C,)`` (m/s) the body of a creature carried by its feet goes at: in a cosine blend, the blend of
-    the two verbs' own horizontal speeds, ``α |v_A| + (1 − α) |v_B|`` (each at its own clock, as it goes alone);
+    the two verbs' own horizontal velocities, ``|α v_A + (1 − α) v_B|`` (each at its own clock, as it goes alone);
     otherwise (a decaying offset) at least the root's own, ``velocity (C, 3)`` with its inertialized offset."""
     n = state.creatures
     out = np.hypot(velocity[:, 0], velocity[:, 1])
     rows = np.flatnonzero(_cosine(state))
     if len(rows) == 0:
         return out
-    speed_a, speed_b = np.zeros(n), np.zeros(n)
+    v_a, v_b = np.zeros((n, 2)), np.zeros((n, 2))
     for sel, d in base.a.values():
-        speed_a[sel] = np.hypot(d[:, 0], d[:, 1])
+        v_a[sel] = d[:, :2]
     for sel, d in base.b.values():
-        speed_b[sel] = np.hypot(d[:, 0], d[:, 1])
-    out[rows] = base.alpha[rows] * speed_a[rows] + (1.0 - base.alpha[rows]) * speed_b[rows]
+        v_b[sel] = d[:, :2]
+    # The speed of the blend of the two velocities, each at its own clock: the blend of their speeds where they go
+    # the same way (a run into a walk), less where they do not. The blend of the speeds kept a body whose verbs went
+    # opposite ways (a stand's end swaying back, a reach's start forward) at 2 cm/s while its way turned round in
+    # three frames (0.8 m/s², the reach's own 0.15).
+    a = base.alpha[rows, None]
+    out[rows] = np.hypot(*(a * v_a[rows] + (1.0 - a) * v_b[rows]).T)
     return out
 
 

@@ -248,7 +248,7 @@ def _dofs(out, v, slot, c, g, verbs, caches, blend):  # pragma: no cover - compi
     segments, generic, goal_window = _segments(verbs, v), _generic_keys(verbs, v), verbs[8][v]
     seam = _columns(caches, slot, v, 2)[c]
     nd = segments.shape[2]
-    lap = math.floor(g)
+    lap = math.floor(g) if verbs[5][v] else 0.0  # a one-shot at its end (g = 1) shows its last pose, not its first
     local = min(max(g - lap, 0.0), 1.0)
     # Generic times: no cycle, so no seam fade (its window is not read).
     seg, fade, vfade, _, t = phase(_columns(caches, slot, v, 1), generic, c, local, GENERIC, 0.0, segments.shape[0],
@@ -272,6 +272,8 @@ def _base(c, ga, gb, verbs, caches, state, d_a, d_b, vel, blend):  # pragma: no 
     rate_a, rate_b, alpha = 1.0, 1.0, 1.0
     if moving:
         rate_a, rate_b = _rates(c, verbs, caches, state)
+        if state[7][c, 0] == state[7][c, 1] and not verbs[5][verb[c]]:
+            rate_a = 1.0  # a one-shot waiting at its end: its body goes on at its last velocity (player._sample)
         alpha = 0.0 if inert else 0.5 * math.cos(min(max(beta[c], 0.0), 1.0) * np.pi) + 0.5
         _dofs(d_b, into[c], 1, c, gb, verbs, caches, blend)
     vel[0], vel[1], vel[2] = 0.0, 0.0, 0.0
@@ -422,12 +424,12 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
     x1, z1, h1 = advance_root_row(x0, z0, h0, moving[c, 0], moving[c, 1], moving[c, 2], dt)
     for a in range(3):
         moving[c, a] = vel[a]
-    # In a cosine blend the body goes at the blend of the verbs' own speeds (player._speeds), and carries that speed
-    # into the next step (player._at_blend_speed).
+    # In a cosine blend the body goes at the speed of the blend of the verbs' own velocities (player._speeds), and
+    # carries that speed into the next step (player._at_blend_speed).
     cosine = active[c] >= 0 and not inertial[c] and transitions[3][active[c]]
     blend_speed = 0.0
     if cosine:
-        blend_speed = alpha * math.hypot(d_a[0], d_a[1]) + (1.0 - alpha) * math.hypot(d_b[0], d_b[1])
+        blend_speed = math.hypot(alpha * d_a[0] + (1.0 - alpha) * d_b[0], alpha * d_a[1] + (1.0 - alpha) * d_b[1])
         m = math.hypot(moving[c, 0], moving[c, 1])
         if m > 1e-12:
             k = blend_speed / m
@@ -492,7 +494,7 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
         if live or cosine:
             for i in range(feet.shape[0]):
                 wts[i] = (1.0 if (held[c, i] and held_before[c, i]) else 0.0) * (1.0 - roll[c, i])
-            # In a cosine blend the blend of the verbs' own speeds, else at least the root's own (player._speeds).
+            # In a cosine blend the speed of the blend of the verbs' own velocities, else at least the root's own (player._speeds).
             lo, hi, change = math.hypot(vel[0], vel[1]), np.inf, np.inf
             fade = 1.0  # under a decaying offset alone, as much of the slip as is left of the offset (player._keep_feet)
             if cosine:
