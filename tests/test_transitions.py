@@ -175,11 +175,10 @@ def test_every_transition_keeps_its_toes_and_hips(graphs, name, seed, adverbs):
 # bow alone snapped its head back to its start at 92 deg/s when it ended, and that snap was its "own" (now 22).
 NOT_YET = {
     ("bandai", "walk", "run", "toe"): 0.025,  # metres over its verbs' own (elsewhere 0.02)
-    ("bandai", "idle", "bow", "legs"): 2.1, ("bandai", "idle", "bye", "legs"): 9.4,  # a foot re-placed in a stand
+    ("bandai", "idle", "bow", "legs"): 2.1, ("bandai", "idle", "bye", "legs"): 9.45,  # a foot re-placed in a stand
     ("bandai", "idle", "idle", "legs"): 24.0,  # ... steps at 200-320 deg/s, where the stand's legs turn at 10-60
     ("bandai", "idle", "bow", "trunk"): 3.1,  # a bow cutting a stand's loop short: the head at 67 deg/s, the bow's 22
     ("bandai", "idle", "idle", "trunk"): 1.9, ("bandai", "idle", "idle", "acc"): 2.8,  # a stand's loop into itself
-    ("bandai", "idle", "reach", "acc"): 2.15,  # 0.32 m/s² (the carry's limit, the reach's examples') against 0.15
     ("bandai", "walk", "idle", "arms"): 1.95, ("bandai", "walk", "run", "arms"): 1.6,
     ("cmu", "walk", "run", "arms"): 3.6, ("cmu", "run", "walk", "arms"): 2.5,  # a forearm bending 80° in 0.19 s
     ("cmu", "run", "walk", "legs"): 1.65, ("cmu", "walk", "run", "acc"): 1.6, ("cmu", "run", "run", "acc"): 1.55,

@@ -377,18 +377,23 @@ def _speeds(state: GraphState, base: _Base, velocity: np.ndarray) -> np.ndarray:
 
 def carry_limits(state: GraphState, rows: np.ndarray) -> np.ndarray:
     """How fast the body of each creature of ``rows``, carried by its held feet under a decaying offset, may change
-    its velocity ``(n,)``, m/s²: no faster than its verbs' own bodies ever do, the examples' fastest root
-    accelerations (``Verb.root_accelerations``) blended with the creature's weights and kept within theirs, the larger
-    of the verb playing's and the one being entered's. A stand sways at 0.1-0.2 m/s², a bow at 0.6-0.8, a walk at
-    3-18. Carried at a walk's pace (4 m/s², the limit before), an interruption jumped a standing body at 2-7x its
-    verbs' own."""
+    its velocity ``(n,)``, m/s²: no faster than its verbs' own bodies do at its adverbs, the larger of the verb
+    playing's and the one being entered's. A verb's own is its examples' root accelerations through their cycle
+    (``Verb.root_acceleration_profile``) blended with the creature's weights at each generic time, at its fastest,
+    kept within the examples' fastest (``Verb.root_accelerations``). A stand sways at 0.1-0.2 m/s², a bow at
+    0.6-0.8, a walk at 3-18. Carried at a walk's pace (4 m/s², the limit before), an interruption jumped a standing
+    body at 2-7x its verbs' own; at the examples' fastest blended (the limit until session 43), a reach's start cut
+    short turned the body at 0.32 m/s², the reach's own at its adverbs 0.15."""
     out = np.zeros(len(rows))
     for slot, verbs in ((0, state.verb[rows]), (1, state.into[rows])):
         for v in np.unique(verbs[verbs >= 0]):
             mine = verbs == v
-            acc = state.graph.verbs[v].root_accelerations
+            verb = state.graph.verbs[v]
+            acc, profile = verb.root_accelerations, verb.root_acceleration_profile
             w = _sampling(state, int(v), slot).weights[rows[mine], : len(acc)]
-            out[mine] = np.maximum(out[mine], np.clip(w @ acc, acc.min(), acc.max()))
+            blended = np.einsum("ne,esk->nsk", w, profile)
+            own = np.max(np.hypot(blended[..., 0], blended[..., 1]) + np.maximum(blended[..., 2], 0.0), axis=1)
+            out[mine] = np.maximum(out[mine], np.clip(own, acc.min(), acc.max()))
     return out
 
 

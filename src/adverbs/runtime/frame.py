@@ -110,6 +110,7 @@ def tables(graph: Graph) -> Tables:
         *packed([v.lift_table if v.holds and v.cyclic else np.zeros(0) for v in vs]),
         np.array([v.lift_table.shape[1:] if v.holds and v.cyclic else (0, 2, 0) for v in vs], dtype=np.int64),
         *packed([v.root_accelerations for v in vs]),
+        *packed([v.root_acceleration_profile for v in vs]),
     )  # fmt: skip
     ts = graph.transitions
     transitions = (

@@ -84,7 +84,7 @@ class ExampleRecord:
 
 TIMINGS = ("extrapolate", "clamp")  # Verb.timing: how keytime intervals behave past the examples
 LIFT_SAMPLES = 128  # Verb.lift_table: samples of each example's foot heights over its generic time
-ACCELERATION_SAMPLES = 257  # Verb.root_accelerations: samples of each example's root velocities over its generic time
+ACCELERATION_SAMPLES = 65  # Verb.root_acceleration_profile: samples of each example's root velocities over its generic time
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:
@@ -325,25 +325,32 @@ class Verb:
         return _frozen(pos[..., tips, 1] - self.floor - heights)
 
     @cached_property
-    def root_accelerations(self) -> np.ndarray:
-        """Each example's fastest horizontal acceleration of its body root ``(E,)``, m/s², over its cycle in its own
-        clock time: ``|v'| + |ω| |v|`` of its fitted root velocities (``root.vx``, ``root.vz``, the heading's rate
-        ``ω``) at ``ACCELERATION_SAMPLES`` evenly spaced generic times; the turn's part is an upper bound whatever
-        its sense. How hard the verb's own body ever speeds up, slows down or turns: a stand sways at 0.1-0.2 m/s², a
-        walk 3-18. Blended at a creature's adverbs, it bounds how fast a body carried by its held feet may change its
-        velocity (:func:`adverbs.graph.player.carry_limits`).
+    def root_acceleration_profile(self) -> np.ndarray:
+        """Each example's body root, how it speeds up, slows down and turns through its cycle ``(E, S, 3)``: at the
+        ``S = ACCELERATION_SAMPLES − 1`` midpoints of evenly spaced generic times, the change of its fitted root
+        velocities (``root.vx``, ``root.vz``) per second of its own clock, and ``|ω| |v|`` (the heading's rate times
+        the speed: what turning adds, whatever its sense). Blended with a creature's weights at the same generic
+        times, it is the verb's own at the creature's adverbs (:func:`adverbs.graph.player.carry_limits`).
 
         Derived from the tables alone, computed on first use and kept (it never changes).
         """
         samples = self._example_samples(ACCELERATION_SAMPLES)
         generic = np.linspace(0.0, 1.0, ACCELERATION_SAMPLES)
-        out = np.empty(len(samples))
+        out = np.empty((len(samples), ACCELERATION_SAMPLES - 1, 3))
         for e, dofs in enumerate(samples):
             step = np.diff(timewarp.clock_time(generic, self.keytimes_table[e], self.generic_keytimes))
-            change = np.diff(dofs[:, :2], axis=0) / step[:, None]
+            out[e, :, :2] = np.diff(dofs[:, :2], axis=0) / step[:, None]
             mid = 0.5 * (dofs[1:, :3] + dofs[:-1, :3])
-            out[e] = np.max(np.hypot(change[:, 0], change[:, 1]) + np.abs(mid[:, 2]) * np.hypot(mid[:, 0], mid[:, 1]))
+            out[e, :, 2] = np.abs(mid[:, 2]) * np.hypot(mid[:, 0], mid[:, 1])
         return _frozen(out)
+
+    @cached_property
+    def root_accelerations(self) -> np.ndarray:
+        """Each example's fastest horizontal acceleration of its body root ``(E,)``, m/s², over its cycle in its own
+        clock time: ``|v'| + |ω| |v|`` of :attr:`root_acceleration_profile` at its fastest. A stand sways at
+        0.1-0.2 m/s², a walk 3-18. The carry's limit at a creature's adverbs is kept within these."""
+        p = self.root_acceleration_profile
+        return _frozen(np.max(np.hypot(p[..., 0], p[..., 1]) + p[..., 2], axis=1))
 
     def point(self, values: dict[str, float] | Sequence[float] | np.ndarray) -> np.ndarray:
         """An adverb point ``(A,)`` from a mapping of adverb names (missing ones: the examples' mean) or a sequence."""
