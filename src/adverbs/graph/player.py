@@ -333,8 +333,8 @@ def _velocity(old: np.ndarray, new: np.ndarray, dt: float) -> np.ndarray:
 
 
 def _at_blend_speed(state: GraphState, vel: np.ndarray, speed: np.ndarray) -> None:
-    """In a cosine blend the body goes at the speed of the blend of the verbs' own velocities (``speed (C,)``, :func:`_speeds`; see
-    :func:`_keep_feet`): the velocity ``vel (C, 3)`` it carries into the next step is scaled (in place) to it, so
+    """In a cosine blend the body goes at the speed of the blend of the verbs' own velocities (``speed (C,)``,
+    :func:`_speeds`; see :func:`_keep_feet`): the velocity ``vel (C, 3)`` it carries into the next step is scaled (in place) to it, so
     the verb left alone when the blend ends goes on from the speed the blend had. The blended velocity itself (each
     verb at its clock's rate in the blend) lagged it: a walk → run ended at 3.0 m/s and its first frame alone went
     2.3, then 3.3 (29 m/s², the run's own 8)."""
@@ -353,8 +353,9 @@ def _cosine(state: GraphState) -> np.ndarray:
 
 
 def _speeds(state: GraphState, base: _Base, velocity: np.ndarray) -> np.ndarray:
-    """The speed ``(C,)`` (m/s) the body of a creature carried by its feet goes at: in a cosine blend, the blend of
-    the two verbs' own horizontal velocities, ``|α v_A + (1 − α) v_B|`` (each at its own clock, as it goes alone);
+    """The speed ``(C,)`` (m/s) the body of a creature carried by its feet goes at: in a cosine blend, the speed of
+    the blend of the two verbs' own horizontal velocities, ``|α v_A + (1 − α) v_B|`` (each at its own clock, as it
+    goes alone);
     otherwise (a decaying offset) at least the root's own, ``velocity (C, 3)`` with its inertialized offset."""
     n = state.creatures
     out = np.hypot(velocity[:, 0], velocity[:, 1])
