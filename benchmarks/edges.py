@@ -46,7 +46,7 @@ from adverbs.graph.performance import Cue, perform
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests"))  # the measures the tests hold the motion to, one definition of each
 from test_edges import FPS, PARTS, _contact, _windows, gesture_script, low_travel  # noqa: E402
-from test_transitions import _measures, _points_in_effect  # noqa: E402
+from test_transitions import _measures, _own, _points_in_effect  # noqa: E402
 
 GRAPHS = ROOT / "graphs"
 RUNS = {
@@ -73,17 +73,6 @@ class Measured:
         self.contact = _contact(self.toes)
         self.lifted = pos[:, toes, 1] - free[:, toes, 1]
         self.hips, self.free_hips = pos[:, pelvis, 1], free[:, pelvis, 1]
-
-
-def own(graph, verb: str, seed: int, adverbs: dict, args) -> dict[str, float]:
-    """``verb`` alone at ``adverbs``: its toes' low travel, fastest joint of each part and root acceleration."""
-    perf = perform(graph, [], seconds=6.0, seed=seed, start=verb, adverbs=adverbs, stay=True)
-    m = Measured(perf, graph, *args)
-    cyclic = graph.verbs[graph.verb_index(verb)].cyclic
-    frames = np.arange(30 if cyclic else 2, len(m.acc))
-    out = {"toe": low_travel(m.toes, m.contact, frames), "acc": float(m.acc[frames].max())}
-    out.update({p: float(s[frames].max()) for p, s in m.parts.items()})
-    return out
 
 
 def window(m: Measured, ref: dict[str, float], a: int, b: int) -> list[float]:
@@ -118,7 +107,7 @@ def measure(name: str) -> dict[tuple[str, str], list[float]]:
         perf = perform(graph, cues, seconds=seconds, seed=seed, adverbs=adverbs, start=graph.verb_names[0])
         m = Measured(perf, graph, *args)
         spans = _points_in_effect(adverbs, script)
-        owns = [{v: own(graph, v, seed, p, args) for v in graph.verb_names} for _, _, p in spans]
+        owns = [{v: _own(graph, v, args[0], seed, p) for v in graph.verb_names} for _, _, p in spans]
         for s, t, a, b in _windows(perf, graph, {(x, y) for x in graph.verb_names for y in graph.verb_names}):
             mine = [o for (start, end, _), o in zip(spans, owns) if start <= b / FPS and a / FPS < end]
             ref = {k: max(max(o[s][k], o[t][k]) for o in mine) for k in mine[0][s]}
@@ -141,7 +130,7 @@ def random_scripts(seeds=RANDOM_SEEDS) -> dict[tuple[str, str], list[list[float]
         cues, adverbs = gesture_script(seed)
         perf = perform(graph, cues, seconds=28.0, seed=seed, adverbs=adverbs, start="idle")
         m = Measured(perf, graph, *args)
-        owns = {v: own(graph, v, seed, adverbs, args) for v in graph.verb_names}
+        owns = {v: _own(graph, v, args[0], seed, adverbs) for v in graph.verb_names}
         for s, t, a, b in _windows(perf, graph, {(x, y) for x in graph.verb_names for y in graph.verb_names}):
             ref = {k: max(owns[s][k], owns[t][k]) for k in owns[s]}
             row = window(m, ref, a, b)

@@ -32,6 +32,12 @@ PARTS = {  # the parts of a body whose joints' speeds are held to their verbs' o
 }
 
 
+def _parts(graph):
+    """The joints of each part of the body (:data:`PARTS`), by name."""
+    names = [n.lower() for n in graph.skeleton.names]
+    return {p: [i for i, n in enumerate(names) if any(k in n for k in keys)] for p, keys in PARTS.items()}
+
+
 @pytest.fixture(scope="module")
 def bandai():
     with warnings.catch_warnings():
@@ -169,14 +175,10 @@ def test_an_adverb_cue_during_a_gesture_eases_in(bandai):
     assert _angular_speed(snapped.planted.rotations)[cue - 2 : cue + 30].max() > 1.5 * own
 
 
-def _arms(graph):
-    return [i for i, n in enumerate(graph.skeleton.names) if any(k in n for k in ("Shoulder", "Arm", "Hand"))]
-
-
 def _own(graph, verb, adverbs, seconds):
     """A verb's own fastest arm joint (rad/s), planted, played alone from its start."""
     rotations = perform(graph, [], seconds=seconds, start=verb, adverbs=adverbs, stay=True).planted.rotations
-    return _angular_speed(rotations)[:, _arms(graph)].max()
+    return _angular_speed(rotations)[:, _parts(graph)["arms"]].max()
 
 
 @pytest.mark.parametrize("seed", [4, 9])
@@ -189,7 +191,7 @@ def test_a_gesture_begun_from_a_stand_cut_short_moves_no_faster_than_its_own(ban
     times = np.cumsum(rng.uniform(2.5, 4.5, 8))
     cues = [Cue(float(t), str(v)) for t, v in zip(times, ["reach", "bow", "reach", "guide"] * 2)]
     perf = perform(bandai, cues, seconds=float(times[-1] + 4.0), seed=seed, adverbs=adverbs)
-    speed = _angular_speed(perf.planted.rotations)[:, _arms(bandai)].max(axis=1)
+    speed = _angular_speed(perf.planted.rotations)[:, _parts(bandai)["arms"]].max(axis=1)
     own = {v: _own(bandai, v, adverbs, 6.0) for v in ("idle", "reach", "bow", "guide")}
     entries = _windows(perf, bandai, {("idle", g) for g in ("reach", "bow", "guide")})
     assert len(entries) >= 4, entries
@@ -350,10 +352,6 @@ def test_a_start_cut_short_by_a_command_speeds_up_as_the_walk_does(bandai, seed,
     assert acc.max() <= 1.5 * own, f"{acc.max():.1f} m/s² at {(start + int(np.argmax(acc))) / FPS:.2f} s (the walk's own {own:.1f})"
 
 
-def _trunk(graph):
-    return [i for i, n in enumerate(graph.skeleton.names) if any(k in n for k in ("Hips", "Spine", "Chest", "Neck", "Head"))]
-
-
 def gesture_script(seed: int):
     """A random script of stands, gestures and walks (cues every 0.6-4 s for 26 s) and its adverbs."""
     rng = np.random.default_rng(seed)
@@ -374,8 +372,8 @@ def test_a_gesture_asked_for_late_in_a_stand_blends_as_long_as_one_asked_for_at_
     through what is left of its region), and no trunk joint turns faster than 1.5x its verbs' own. Random scripts."""
     cues, adverbs = gesture_script(seed)
     perf = perform(bandai, cues, seconds=28.0, seed=seed, adverbs=adverbs, start="idle")
-    speed = _angular_speed(perf.planted.rotations)[:, _trunk(bandai)].max(axis=1)
-    own = max(_angular_speed(perform(bandai, [], seconds=6.0, seed=seed, start=v, adverbs=adverbs, stay=True).planted.rotations)[1:, _trunk(bandai)].max()
+    speed = _angular_speed(perf.planted.rotations)[:, _parts(bandai)["trunk"]].max(axis=1)
+    own = max(_angular_speed(perform(bandai, [], seconds=6.0, seed=seed, start=v, adverbs=adverbs, stay=True).planted.rotations)[1:, _parts(bandai)["trunk"]].max()
               for v in ("idle", "guide"))  # fmt: skip
     entries = _windows(perf, bandai, {("idle", "guide")})
     assert len(entries) >= 3, entries

@@ -30,7 +30,7 @@ from adverbs.errors import AdverbsWarning
 from adverbs.graph.easing import EASE
 from adverbs.graph.performance import Cue, perform
 
-from test_edges import FPS, PARTS, _angular_speed, _contact, _windows, low_travel
+from test_edges import FPS, _angular_speed, _contact, _parts, _windows, low_travel
 
 GRAPHS = Path(__file__).resolve().parent.parent / "graphs"
 SCRIPTS = {
@@ -57,12 +57,6 @@ def graphs():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", AdverbsWarning)
         return {name: load_graph(GRAPHS / f"{name}.toml") for name in SCRIPTS}
-
-
-def _parts(graph):
-    """The joints of each part of the body (:data:`PARTS`), by name."""
-    names = [n.lower() for n in graph.skeleton.names]
-    return {p: [i for i, n in enumerate(names) if any(k in n for k in keys)] for p, keys in PARTS.items()}
 
 
 def _measures(perf, graph, toes):

@@ -170,7 +170,7 @@ def _sample(state: GraphState, g_a: np.ndarray, g_b: np.ndarray) -> _Base:
         # stands still in the pose it ends on, but its body goes on at its own last velocity, as its clock would run,
         # fading with its weight. With its clock's rate (0), the body took B's way at once: at the start of a reach
         # from a stand's end it turned back on itself in one frame (0.9 m/s², the reach's own 0.15).
-        one_shot = ~np.array([state.graph.verbs[v].cyclic for v in state.verb[moving]], dtype=bool)
+        one_shot = ~state.graph.cyclic[state.verb[moving]]
         rate_a[moving[(state.regions[moving, 0] == state.regions[moving, 1]) & one_shot]] = 1.0
         alpha[moving] = np.where(inertial[moving], 0.0, blend_weight(state.beta[moving]))
         b = _dofs(state, state.into, g_b, 1, moving)
