@@ -57,7 +57,7 @@ def frame_ms(graph, n: int, path: str, seconds: float) -> float:
     if path == "reference":
         def one() -> None:
             frame = step(state, DT)
-            plant(feet, frame, DT, state.alone)
+            plant(feet, frame, DT, state.alone, state.standing)
     else:
         fp = FramePass(state, feet, threads=1 if path == "1 thread" else None)
 
@@ -98,7 +98,7 @@ def goal_ms(graph, n: int, compiled: bool, frames: int = 20, move: bool = True, 
         if fp is not None:
             fp.step(DT)
         else:
-            plant(feet, step(state, DT), DT, state.alone)
+            plant(feet, step(state, DT), DT, state.alone, state.standing)
         if f >= 3:
             times.append(time.perf_counter() - t)
     goals.THREADS = None

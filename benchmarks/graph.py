@@ -39,7 +39,7 @@ def crowd(graph, creatures: int, frames: int = 150) -> tuple[float, float]:
         t0 = time.perf_counter()
         frame = step(state, DT)
         t1 = time.perf_counter()
-        plant(feet, frame, DT, state.alone)
+        plant(feet, frame, DT, state.alone, state.standing)
         t2 = time.perf_counter()
         if f >= 10:
             plain.append(t1 - t0)

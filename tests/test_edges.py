@@ -493,3 +493,55 @@ def test_the_carry_limit_at_an_examples_point_is_that_examples_own(bandai, name)
         np.testing.assert_allclose(own(verb.weights(point)), fastest[e], rtol=1e-9, atol=1e-12)
     middle = verb.weights(verb.points.mean(axis=0))
     assert own(middle) <= fastest.max() + 1e-12
+
+
+def test_a_standing_foot_is_re_placed_only_far_off_or_with_the_body_off_both():
+    """``planted._standing_far``, the rule for creatures that stand: a held flat foot is re-placed when it is
+    ``STANDING`` from where the verbs have it, or when every foot is held flat and their mean offset (the body gone
+    from over them) is over ``SHIFTED``: then only the further one; a foot not held flat never."""
+    from adverbs.graph.planted import SHIFTED, STANDING, _standing_far
+
+    def far(left, right, flat=(True, True)):
+        away = np.array([[[left[0], 0.0, left[1]], [right[0], 0.0, right[1]]]])
+        gap = np.hypot(away[..., 0], away[..., 2])
+        return _standing_far(np.array([flat]), away, gap)[0].tolist()
+
+    below, above = STANDING - 0.005, STANDING + 0.005
+    assert far((below, 0.0), (0.0, 0.0)) == [False, False]  # a stance 14.5 cm apart from the verbs': held
+    assert far((0.0, above), (0.0, 0.0)) == [True, False]
+    assert far((above, 0.0), (0.0, 0.0), flat=(False, True)) == [False, False]  # rolling or free: not this rule's
+    assert far((-0.01, 0.0), (above, 0.0)) == [False, True]
+    shift = 2 * SHIFTED + 0.01  # both feet off the same way, the body off them: the further steps, one at a time
+    assert far((shift / 2 + 0.01, 0.0), (shift / 2 - 0.01, 0.0)) == [True, False]
+    assert far((0.0, shift / 2 - 0.01), (0.0, shift / 2 + 0.01)) == [False, True]
+    assert far((shift / 2 + 0.01, 0.0), (shift / 2 - 0.01, 0.0), flat=(True, False)) == [False, False]
+    assert far((SHIFTED + 0.01, 0.0), (-SHIFTED - 0.01, 0.0)) == [False, False]  # a wider stance: the body over it
+
+
+@pytest.mark.parametrize("gesture, valence", [
+    ("guide", 0.0), ("reach", 0.0), ("reach", -0.8),
+    pytest.param("guide", 0.8, marks=pytest.mark.xfail(strict=True, reason=(
+        "issue 32: the happy stand's loop travels 1.2 cm/s forward over its held feet (each loop's seam adds the "
+        "clip's travel) until a foot is 15 cm off and steps"))),
+])  # fmt: skip
+def test_a_stand_after_a_gesture_keeps_its_feet_where_the_gesture_left_them(bandai, gesture, valence):
+    """The stand's takes put the feet up to 12 cm from where a gesture's end has them (the guide's left toe 11 cm
+    behind). Re-placed at 6 cm, the stand after a gesture stepped at once: after the guide at valence 0 a knee at
+    220 deg/s (6.0x the stand's own legs), after the reach 8.1x, and at valence -0.8 86x (the sad stand's legs are all
+    but still). A creature that stands now holds its feet unless one is 15 cm off (``planted.STANDING``) or the
+    body is 8 cm off both: the legs of the stand after a gesture (played alone, staying) turn no faster than 1.5x
+    the stand's own."""
+    from test_transitions import _angular_speed
+
+    legs = _parts(bandai)["legs"]
+
+    def fastest(perf):
+        return np.concatenate([[0.0], _angular_speed(perf.planted.rotations)[:, legs].max(axis=1)])
+
+    adverbs = {"valence": valence}
+    own = fastest(perform(bandai, [], seconds=6.0, seed=1, start="idle", adverbs=adverbs, stay=True))[2:].max()
+    perf = perform(bandai, [], seconds=8.0, seed=1, start=gesture, adverbs=adverbs, stay=True)
+    standing = np.flatnonzero(perf.verb == bandai.verb_index("idle"))
+    assert len(standing) > 3 * FPS
+    shown = fastest(perf)[standing[0] :].max()
+    assert shown <= 1.5 * own, f"the stand after the {gesture}: legs at {shown / own:.2f}x its own"

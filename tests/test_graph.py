@@ -286,7 +286,7 @@ def _run(graph, k, point, interrupt=False):
     done, ended = None, False
     for f in range(2000):
         frame = step(state, DT)
-        r, tr, _ = plant(feet, frame, DT, state.alone)
+        r, tr, _ = plant(feet, frame, DT, state.alone, state.standing)
         rot.append(r[0]), trans.append(tr[0]), free.append(frame), modes.append(feet.mode[0] == BALL)
         if (state.active[0] == k and not ended) or (done is not None and f < done):
             window.append(f)

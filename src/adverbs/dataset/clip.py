@@ -257,7 +257,7 @@ def _together(graph: Graph, fps: float, creatures: list[_Creature]) -> list[tupl
                 rot[k][f], trans[k][f] = frame.rotations[k], frame.translations[k]
                 continue
             one = Frame(*(getattr(frame, x.name)[k : k + 1].copy() for x in fields(Frame)))
-            r, t, result = plant(feet[k], one, dt, state.alone[k : k + 1])
+            r, t, result = plant(feet[k], one, dt, state.alone[k : k + 1], state.standing[k : k + 1])
             rot[k][f], trans[k][f] = r[0], t[0]
             modes[k][f], turns[k][f], drops[k][f] = feet[k].planter.shown_mode[0], feet[k].planter.rolled[0], result.root_drop[0]
             unreachable[k] += int(np.count_nonzero(result.unreachable))

@@ -154,7 +154,7 @@ def perform(
         frame = first_frame(state) if first else step(state, dt)
         free_rot[f], free_trans[f] = frame.rotations[0], frame.translations[0]
         if feet is not None:
-            r, t, result = plant(feet, frame, dt, state.alone)
+            r, t, result = plant(feet, frame, dt, state.alone, state.standing)
             rot[f], trans[f] = r[0], t[0]
             modes[f], turns[f] = feet.mode[0], feet.turn[0]
             drops[f] = result.root_drop[0]

@@ -18,6 +18,8 @@ from .player import Frame
 REPLANT = 0.06  # metres: a held foot this far (across the floor) from where the verb playing has it is re-placed
 REPLANTED = 0.01  # metres: ... until the released foot is this near the verb's again
 LEFT_BEHIND = 0.12  # metres: in a blend, a held foot this far from where the verbs have it is re-placed
+STANDING = 0.15  # metres: ... and where the creature stands or comes to stand (the verb entered is a one-shot) ...
+SHIFTED = 0.08  # metres: ... or, standing, when its held feet are this far on average (the body off them): the further
 STEP_RISE = 0.06  # seconds: a re-placed foot's lift rises over this long from its release ...
 STEP_DELAY = 0.04  # seconds: ... and it travels only after this long (lifted first) ...
 STEP_LAND = 0.03  # metres: ... and comes back down as it comes from this to REPLANTED of where the verb has it
@@ -87,11 +89,18 @@ def _step_lift(p: FootPlanter, swinging: np.ndarray) -> np.ndarray:
     return np.where(p.mode == FREE, rise * np.maximum(land, swinging), 0.0)
 
 
-def plant(feet: GraphFeet, frame: Frame, dt: float, alone: np.ndarray):
+def plant(feet: GraphFeet, frame: Frame, dt: float, alone: np.ndarray, standing: np.ndarray | None = None):
     """The frame's feet planted: rotations ``(C, J, 4)``, translations ``(C, J, 3)`` and the IK result; feet held
     too far from where the verbs have them are re-placed (see :class:`GraphFeet`): ``REPLANT`` away where
     ``alone (C,)`` says a creature plays one verb (alone or in its own loop; no decaying offset), ``LEFT_BEHIND`` in
-    a blend of two verbs."""
+    a blend of two verbs, and ``STANDING`` where ``standing (C,)`` (``GraphState.standing``) says a creature stands
+    or comes to stand: the verb it plays alone, or the one it is entering, is a one-shot (a stand, a gesture, a stop).
+
+    Standing verbs stand their feet where their takes did, up to 12 cm apart from one another (the Bandai guide
+    ends with the left toe 11 cm behind where the stand has it), and a stop lands its feet where the walk had them.
+    Re-placed at 6 or 12 cm, a stand after a gesture or a stop stepped, its knee at 200-320 deg/s where the stand's
+    own turns at 10-60. Held where they are, the legs reach them; a foot out of its leg's reach is re-placed at any
+    distance (``spent``, below)."""
     p = feet.planter
     held = frame.held & ~feet.replanting
     swinging = np.where(frame.held, 0.0, frame.swing)
@@ -113,6 +122,20 @@ def plant(feet: GraphFeet, frame: Frame, dt: float, alone: np.ndarray):
         feet.replanting &= ~((p.mode == FREE) & settled & (p.since[..., 0] > 0))
     away = p.prev_free - p.target
     gap = np.hypot(away[..., 0], away[..., 2])
-    far = np.where(alone[:, None], REPLANT, LEFT_BEHIND)
-    feet.replanting |= (p.mode == BALL) & (p.turn == 0.0) & (gap > far)
+    flat = (p.mode == BALL) & (p.turn == 0.0)
+    far = flat & (gap > np.where(alone, REPLANT, LEFT_BEHIND)[:, None])
+    if standing is not None:
+        feet.replanting |= np.where(standing[:, None], _standing_far(flat, away, gap), far)
+    else:
+        feet.replanting |= far
     return out
+
+
+def _standing_far(flat: np.ndarray, away: np.ndarray, gap: np.ndarray) -> np.ndarray:
+    """Which held feet ``(C, L)`` of standing creatures to re-place: one ``STANDING`` from where the verbs have it,
+    or, with every foot held flat and the body gone ``SHIFTED`` from over them (their mean offset ``away (C, L, 3)``),
+    the further one."""
+    mean = away.mean(axis=1)
+    shifted = flat.all(axis=1) & (np.hypot(mean[:, 0], mean[:, 2]) > SHIFTED)
+    further = np.arange(gap.shape[1])[None, :] == gap.argmax(axis=1)[:, None]
+    return flat & ((gap > STANDING) | (shifted[:, None] & further))

@@ -300,6 +300,7 @@ def _step(state: GraphState, dt: float) -> Frame:
     blended[live] = True
     # One verb (alone, or looping into itself: its instances keep their feet alike) and no decaying offset.
     state.alone = ((state.active < 0) | ~state.graph.between_verbs[state.active]) & ~blended
+    state.standing = _standing(state)
     new_root = _keep_feet(state, rot, trans, new_root, held, roll, blended, speed, dt)
     vel = _velocity(state.root, new_root, dt)
     state.root = new_root
@@ -320,9 +321,16 @@ def first_frame(state: GraphState) -> Frame:
     rot, trans = _decode(state, base, state.root)
     held, roll, swing, lifts = hold_phases(state)
     state.alone = (state.active < 0) | ~state.graph.between_verbs[state.active]
+    state.standing = _standing(state)
     state.moving = base.velocity.copy()
     state.shown, state.held_before = (rot, trans, base.velocity.copy()), held
     return Frame(rot, trans, state.root.copy(), base.velocity.copy(), held, roll, swing, lifts)
+
+
+def _standing(state: GraphState) -> np.ndarray:
+    """Which creatures stand or are coming to stand ``(C,)``: the verb playing alone, or the one being entered, is a
+    one-shot (a stand, a gesture; a stop too)."""
+    return ~state.graph.cyclic[np.where(state.active >= 0, state.into, state.verb)]
 
 
 def _velocity(old: np.ndarray, new: np.ndarray, dt: float) -> np.ndarray:

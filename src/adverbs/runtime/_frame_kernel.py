@@ -58,7 +58,7 @@ from ..verb._sampling_kernel import GENERIC, VELOCITIES, goal_weight, phase, que
 STARTED, FINISHED = 1, 2  # events: a transition started, or finished, this frame
 FREE, BALL = 0, 2  # planting.FREE, planting.BALL
 # Where each constant sits in ``k_`` (see frame.FramePass).
-_LATE, _MIN_DURATION, _INERTIAL, _LN2, _REPLANT, _REPLANTED, _SWING, _LIFT, _LANDS, _LEFT_BEHIND, _RISE, _DELAY, _LAND, _MIN_LOOP = range(14)
+_LATE, _MIN_DURATION, _INERTIAL, _LN2, _REPLANT, _REPLANTED, _SWING, _LIFT, _LANDS, _LEFT_BEHIND, _RISE, _DELAY, _LAND, _MIN_LOOP, _STANDING, _SHIFTED = range(16)
 
 
 # ----- the tables, packed: per verb, a slice of a flat array (see frame.tables and FramePass) ------------------
@@ -401,7 +401,7 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
     offset_rot, offset_rot_vel, offset_trans, offset_trans_vel = state[11], state[12], state[13], state[14]
     offset_root, offset_since, offset_halflife, moving, root, held_before = state[15:21]
     rot, trans, vel_out, shown_rot, shown_trans, before_rot, before_trans, shown_vel = buffers
-    held, roll, swing, alone, events, g_settle, lifts = outputs
+    held, roll, swing, alone, events, g_settle, lifts, standing = outputs
     parents, feet, above_inv, body = skeleton
     d_a, d_b, e_a, e_b, vel, vel0, r1, r2, blend = scratch[:9]
     rot_b, trans_b, rot0, trans0, hb, rb, sb, wts = scratch[9:17]
@@ -501,6 +501,7 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
                 elif not ha and not hb[i]:
                     swing[c, i] = min(sa, sb[i])
     alone[c] = (not is_moving or not transitions[3][active[c]]) and not live  # one verb (player._step)
+    standing[c] = not verbs[5][into[c] if is_moving else verb[c]]  # coming to stand (player._standing)
     # The body carried by the held feet's slip in a blend (player._keep_feet).
     root[c, 0], root[c, 1], root[c, 2] = x1, z1, h1
     if has_shown and has_held_before:
@@ -630,7 +631,7 @@ def _frame(lo, hi, dt, flags, turns, held, feet):  # pragma: no cover - compiled
 def _plant(lo, hi, dt, outputs, planted, feet, start, k_):  # pragma: no cover - compiled
     """``planted.plant`` for creatures ``lo`` to ``hi``: the planter's kernel on their poses (in place), then which feet
     to re-place (``GraphFeet``). ``start``: the planter's first frame; ``dt``: its step, every creature's."""
-    held, roll, swing, alone, lifts = outputs[0], outputs[1], outputs[2], outputs[3], outputs[6]
+    held, roll, swing, alone, lifts, standing = outputs[0], outputs[1], outputs[2], outputs[3], outputs[6], outputs[7]
     (parents, generic, inside, dts, times, cyclic, verb_floor, tips, root, legs, constants, floor, st, chain,
      ik_params, scratch, drop, residual, replanting) = borrowed_box(feet)  # fmt: skip
     rot, trans = planted
@@ -683,9 +684,21 @@ def _plant(lo, hi, dt, outputs, planted, feet, start, k_):  # pragma: no cover -
                     norm = math.sqrt(sq)
                 if mode[c, i] == FREE and norm < k_[_REPLANTED] and since[c, i, 0] > 0:
                     replanting[c, i] = False
+        # Held flat too far from where the verbs have it (planted.plant; standing: planted._standing_far).
+        flat_all, mx, mz, further, most = True, 0.0, 0.0, 0, -1.0
+        for i in range(n_l):
+            flat_all = flat_all and mode[c, i] == BALL and turn[c, i] == 0.0
+            mx += prev_free[c, i, 0] - target[c, i, 0]
+            mz += prev_free[c, i, 2] - target[c, i, 2]
+            gap = math.hypot(prev_free[c, i, 0] - target[c, i, 0], prev_free[c, i, 2] - target[c, i, 2])
+            if gap > most:
+                further, most = i, gap
+        shifted = standing[c] and flat_all and math.hypot(mx / n_l, mz / n_l) > k_[_SHIFTED]
+        far = k_[_STANDING] if standing[c] else (k_[_REPLANT] if alone[c] else k_[_LEFT_BEHIND])
+        for i in range(n_l):
             if mode[c, i] == BALL and turn[c, i] == 0.0:
                 gap = math.hypot(prev_free[c, i, 0] - target[c, i, 0], prev_free[c, i, 2] - target[c, i, 2])
-                if gap > (k_[_REPLANT] if alone[c] else k_[_LEFT_BEHIND]):
+                if gap > far or (shifted and i == further):
                     replanting[c, i] = True
     return finite
 

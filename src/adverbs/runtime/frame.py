@@ -134,6 +134,7 @@ def _constants() -> np.ndarray:
         graph_state._LATE, graph_state.MIN_DURATION, graph_state.INERTIAL_HALFLIFE, planting._LN2, planted.REPLANT,
         planted.REPLANTED, planting.SWING_HALFLIFE, planting.LIFT_HALFLIFE, player.LANDS,
         planted.LEFT_BEHIND, planted.STEP_RISE, planted.STEP_DELAY, planted.STEP_LAND, graph_state.MIN_LOOP,
+        planted.STANDING, planted.SHIFTED,
     ])  # fmt: skip
 
 
@@ -174,6 +175,7 @@ class FramePass:
         self.held, self.roll, self.swing = np.zeros((c, n_l), dtype=bool), np.zeros((c, n_l)), np.zeros((c, n_l))
         self.lifts = np.full((c, n_l), -np.inf)
         self.alone = np.zeros(c, dtype=bool)
+        self.standing = np.zeros(c, dtype=bool)
         self.events = np.zeros(c, dtype=np.int64)
         self.g_settle = np.zeros(c)
         self.constants = _constants()
@@ -314,7 +316,7 @@ class FramePass:
         self._turns = (before, new, shown)
         self._turn ^= 1
         state.shown_before, state.shown = state.shown, self._poses[new]
-        state.alone = self.alone
+        state.alone, state.standing = self.alone, self.standing
         if not finite:
             raise AdverbsError("IK targets must be finite (got NaN or infinity)")
         return planted
@@ -344,7 +346,7 @@ class FramePass:
         if self._box_key is not None and all(map(operator.is_, key, self._box_key)):
             return self._boxed
         t = self.tables
-        outputs = (self.held, self.roll, self.swing, self.alone, self.events, self.g_settle, self.lifts)
+        outputs = (self.held, self.roll, self.swing, self.alone, self.events, self.g_settle, self.lifts, self.standing)
         self._box_key = key
         self._boxed = hold((
             t.verbs, t.transitions, t.skeleton, self._caches, arrays, state.head, tuple(self._poses), outputs,

@@ -503,7 +503,7 @@ class Simulation:
         else:
             frame = step(s, dt)
             if g.feet is not None and self._plant:
-                g.rotations, g.translations, _ = plant(g.feet, frame, dt, s.alone)
+                g.rotations, g.translations, _ = plant(g.feet, frame, dt, s.alone, s.standing)
             else:
                 g.rotations, g.translations = frame.rotations, frame.translations
         g.shown_active = s.active.copy()
