@@ -93,9 +93,10 @@ def perform(
     An adverb cue eases from the point shown to the one asked for over ``ease`` seconds (smoothstep; 0: at once),
     as the run time's adverb changes do, so a cue during a gesture does not snap its pose.
 
-    ``stay``: the first verb keeps playing, through its loop into itself, until a cue asks for another (a verb without a
-    loop goes on by a drawn transition to one that has, and stays there: see :func:`~adverbs.graph.queue.command`);
-    otherwise the queue draws every next transition by likelihood, and a creature left without cues wanders the graph.
+    ``stay``: the first verb, and each verb a cue asks for, keeps playing, through its loop into itself, until a cue
+    asks for another (a verb without a loop goes on by a drawn transition to one that has, and stays there: see
+    :func:`~adverbs.graph.queue.command`); otherwise the queue draws every next transition by likelihood, and a
+    creature left without cues wanders the graph.
     """
     if planned:
         point = graph.point(adverbs)
@@ -136,7 +137,7 @@ def perform(
                     outcomes[-1][2] = "adverbs set"
                 if cue.verb is not None:
                     arrived = len(state.latencies)
-                    command(state, 0, cue.verb)
+                    command(state, 0, cue.verb, stay=stay)
                     if waiting is not None:
                         outcomes[waiting][2] = f"superseded by the cue at {cue.time:g} s before {outcomes[waiting][1]} played"
                     waiting = len(outcomes) - 1
