@@ -577,3 +577,28 @@ def test_stops_in_random_scripts_brake_at_the_walks_pace(bandai):
     ratios = np.array(ratios)
     assert len(ratios) >= 15, len(ratios)
     assert (ratios > 1.5).sum() <= len(ratios) // 10 and ratios.max() < 1.6, np.round(np.sort(ratios)[-5:], 2)
+
+
+@pytest.mark.parametrize("seed, adverbs", [
+    (3, {"valence": 0.4, "energy": 0.2}), (9, {"valence": -0.3, "energy": -0.4}), (14, {"valence": 0.0, "energy": 0.6}),
+])  # fmt: skip
+def test_a_start_cut_short_lifts_its_first_foot_at_the_walks_pace(bandai, seed, adverbs):
+    """A start cut short by a command plays the walk at once under the decaying offset of the pose shown, still
+    mostly the stand's. The planter kept the first foot over the walk's examples' whole lift from that frame on, and
+    the foot rose 4.6 cm in a frame (a random script, seed 217: the knee at 750 deg/s, the walk's own 407). The lift
+    kept under it now grows as the offset decays (``player._offset_lifts``). A bow asked for 0.1-0.23 s into a start:
+    the legs turn no faster than 1.5x the walk's own (before: up to 1.98x, in 4 of these 9)."""
+    from test_transitions import _angular_speed
+
+    legs = _parts(bandai)["legs"]
+    alone = perform(bandai, [], seconds=6.0, seed=seed, start="walk", adverbs=adverbs, stay=True)
+    own = _angular_speed(alone.planted.rotations)[30:, legs].max()
+    starts = [k for k, t in enumerate(bandai.transitions) if (t.source, t.target) == (bandai.verb_index("idle"), bandai.verb_index("walk"))]
+    cut = 0
+    for delay in (0.1, 0.17, 0.23):
+        cues = [Cue(0.3, "walk"), Cue(0.3 + delay, "bow")]
+        perf = perform(bandai, cues, seconds=3.0, seed=seed, adverbs=adverbs, start="idle", stay=True)
+        cut += perf.active[int((0.3 + delay) * FPS)] in starts  # the bow asked for during the start
+        shown = _angular_speed(perf.planted.rotations)[int(0.3 * FPS) : int(1.5 * FPS), legs].max()
+        assert shown <= 1.5 * own, f"a bow {delay:.2f} s into the start: legs at {shown / own:.2f}x the walk's own"
+    assert cut >= 2, cut

@@ -176,7 +176,6 @@ NOT_YET = {
     ("bandai", "run", "run", "toe"): 0.025, ("cmu", "walk", "walk", "toe"): 0.035, ("cmu", "walk", "run", "toe"): 0.035,
     ("bandai", "idle", "idle", "legs"): 19.6,  # a foot re-placed in a stand: a step at 200-320 deg/s, where the
     ("bandai", "idle", "reach", "legs"): 3.95,  # ... stand's legs turn at 10-60
-    ("bandai", "idle", "walk", "legs"): 1.55,
     ("bandai", "idle", "bow", "trunk"): 3.1,  # a bow cutting a stand's loop short: the head at 67 deg/s, the bow's 22
     ("bandai", "idle", "idle", "trunk"): 1.9,  # a stand's loop into itself
     ("bandai", "walk", "idle", "acc"): 1.85, ("bandai", "walk", "idle", "arms"): 1.65, ("bandai", "walk", "run", "arms"): 1.6,

@@ -298,6 +298,8 @@ def _step(state: GraphState, dt: float) -> Frame:
     held, roll, swing, lifts = hold_phases(state)
     blended = np.zeros(state.creatures, dtype=bool)
     blended[live] = True
+    if len(live):  # the examples' lifts kept under the foot as much as the pose shown has become the verbs'
+        lifts[live] = _offset_lifts(lifts[live], state.offset_since[live], state.offset_halflife[live])
     # One verb (alone, or looping into itself: its instances keep their feet alike) and no decaying offset.
     state.alone = ((state.active < 0) | ~state.graph.between_verbs[state.active]) & ~blended
     state.standing = _standing(state)
@@ -325,6 +327,15 @@ def first_frame(state: GraphState) -> Frame:
     state.moving = base.velocity.copy()
     state.shown, state.held_before = (rot, trans, base.velocity.copy()), held
     return Frame(rot, trans, state.root.copy(), base.velocity.copy(), held, roll, swing, lifts)
+
+
+def _offset_lifts(lifts: np.ndarray, since: np.ndarray, halflife: np.ndarray) -> np.ndarray:
+    """The examples' lifts ``(n, L)`` of creatures under a decaying offset: as much of each as the offset has decayed
+    (its spring's weight gone), so the foot is kept over them only as the pose shown has become the verb's. Kept
+    over the walk's whole lift at once, the first foot of a start cut short by a command (the walk played at once
+    under the offset of the pose shown, still mostly the stand's) rose 4.6 cm in a frame, the knee at 750 deg/s."""
+    w = 1.0 - _spring(1.0, 0.0, since, halflife)[:, None]
+    return np.where(np.isfinite(lifts), lifts * w, lifts)
 
 
 def _standing(state: GraphState) -> np.ndarray:

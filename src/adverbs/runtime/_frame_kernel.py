@@ -500,6 +500,11 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
                     swing[c, i] = max(sa, sb[i])
                 elif not ha and not hb[i]:
                     swing[c, i] = min(sa, sb[i])
+    if live:  # the examples' lifts as much as the offset has decayed (player._offset_lifts)
+        w = 1.0 - spring(1.0, 0.0, offset_since[c], offset_halflife[c], k_[_LN2])
+        for i in range(lifts.shape[1]):
+            if math.isfinite(lifts[c, i]):
+                lifts[c, i] *= w
     alone[c] = (not is_moving or not transitions[3][active[c]]) and not live  # one verb (player._step)
     standing[c] = not verbs[5][into[c] if is_moving else verb[c]]  # coming to stand (player._standing)
     # The body carried by the held feet's slip in a blend (player._keep_feet).
