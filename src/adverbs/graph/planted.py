@@ -94,7 +94,8 @@ def plant(feet: GraphFeet, frame: Frame, dt: float, alone: np.ndarray, standing:
     too far from where the verbs have them are re-placed (see :class:`GraphFeet`): ``REPLANT`` away where
     ``alone (C,)`` says a creature plays one verb (alone or in its own loop; no decaying offset), ``LEFT_BEHIND`` in
     a blend of two verbs, and ``STANDING`` where ``standing (C,)`` (``GraphState.standing``) says a creature stands
-    or comes to stand: the verb it plays alone, or the one it is entering, is a one-shot (a stand, a gesture, a stop).
+    or comes to stand: the verb it plays alone, or the one it is entering, is a one-shot (a stand, a gesture, a stop;
+    ``None``: none does).
 
     Standing verbs stand their feet where their takes did, up to 12 cm apart from one another (the Bandai guide
     ends with the left toe 11 cm behind where the stand has it), and a stop lands its feet where the walk had them.

@@ -69,7 +69,7 @@ class GraphState:
     shown_before: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
     inertial: np.ndarray | None = None
     alone: np.ndarray | None = None
-    standing: np.ndarray | None = None  # (C,) the verbs playing are one-shots (a stand, a gesture): see planted.plant
+    standing: np.ndarray | None = None  # (C,) the verb playing alone, or the one entered, is a one-shot: planted.plant
     stay: np.ndarray | None = None
     held_before: np.ndarray | None = None
     moving: np.ndarray | None = None
