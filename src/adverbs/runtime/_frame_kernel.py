@@ -401,7 +401,7 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
     offset_rot, offset_rot_vel, offset_trans, offset_trans_vel = state[11], state[12], state[13], state[14]
     offset_root, offset_since, offset_halflife, moving, root, held_before = state[15:21]
     rot, trans, vel_out, shown_rot, shown_trans, before_rot, before_trans, shown_vel = buffers
-    held, roll, swing, alone, events, g_settle, lifts, standing = outputs
+    held, roll, swing, kinds, events, g_settle, lifts = outputs
     parents, feet, above_inv, body = skeleton
     d_a, d_b, e_a, e_b, vel, vel0, r1, r2, blend = scratch[:9]
     rot_b, trans_b, rot0, trans0, hb, rb, sb, wts = scratch[9:17]
@@ -505,8 +505,8 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
         for i in range(lifts.shape[1]):
             if math.isfinite(lifts[c, i]):
                 lifts[c, i] *= w
-    alone[c] = (not is_moving or not transitions[3][active[c]]) and not live  # one verb (player._step)
-    standing[c] = not verbs[5][into[c] if is_moving else verb[c]]  # coming to stand (player._standing)
+    kinds[c, 0] = (not is_moving or not transitions[3][active[c]]) and not live  # one verb (player._step)
+    kinds[c, 1] = not verbs[5][into[c] if is_moving else verb[c]]  # standing, or coming to stand (player._standing)
     # The body carried by the held feet's slip in a blend (player._keep_feet).
     root[c, 0], root[c, 1], root[c, 2] = x1, z1, h1
     if has_shown and has_held_before:
@@ -636,7 +636,7 @@ def _frame(lo, hi, dt, flags, turns, held, feet):  # pragma: no cover - compiled
 def _plant(lo, hi, dt, outputs, planted, feet, start, k_):  # pragma: no cover - compiled
     """``planted.plant`` for creatures ``lo`` to ``hi``: the planter's kernel on their poses (in place), then which feet
     to re-place (``GraphFeet``). ``start``: the planter's first frame; ``dt``: its step, every creature's."""
-    held, roll, swing, alone, lifts, standing = outputs[0], outputs[1], outputs[2], outputs[3], outputs[6], outputs[7]
+    held, roll, swing, kinds, lifts = outputs[0], outputs[1], outputs[2], outputs[3], outputs[6]
     (parents, generic, inside, dts, times, cyclic, verb_floor, tips, root, legs, constants, floor, st, chain,
      ik_params, scratch, drop, residual, replanting) = borrowed_box(feet)  # fmt: skip
     rot, trans = planted
@@ -698,8 +698,9 @@ def _plant(lo, hi, dt, outputs, planted, feet, start, k_):  # pragma: no cover -
             gap = math.hypot(prev_free[c, i, 0] - target[c, i, 0], prev_free[c, i, 2] - target[c, i, 2])
             if gap > most:
                 further, most = i, gap
-        shifted = standing[c] and flat_all and math.hypot(mx / n_l, mz / n_l) > k_[_SHIFTED]
-        far = k_[_STANDING] if standing[c] else (k_[_REPLANT] if alone[c] else k_[_LEFT_BEHIND])
+        standing = kinds[c, 1]
+        shifted = standing and flat_all and math.hypot(mx / n_l, mz / n_l) > k_[_SHIFTED]
+        far = k_[_STANDING] if standing else (k_[_REPLANT] if kinds[c, 0] else k_[_LEFT_BEHIND])
         for i in range(n_l):
             if mode[c, i] == BALL and turn[c, i] == 0.0:
                 gap = math.hypot(prev_free[c, i, 0] - target[c, i, 0], prev_free[c, i, 2] - target[c, i, 2])
