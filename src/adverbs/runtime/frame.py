@@ -175,7 +175,8 @@ class FramePass:
         self.held, self.roll, self.swing = np.zeros((c, n_l), dtype=bool), np.zeros((c, n_l)), np.zeros((c, n_l))
         self.lifts = np.full((c, n_l), -np.inf)
         # Which creatures play one verb, and which stand (GraphState.alone, .standing): one array, so the kernel's
-        # outputs stay seven (an eighth array in them cost a tenth of a crowd's frame, 10,000 creatures 94 -> 105 ms).
+        # outputs stay seven (an eighth array in them cost a tenth of a crowd's frame, 10,000 creatures 94 -> 105 ms;
+        # why was not found).
         self.kinds = np.zeros((c, 2), dtype=bool)
         self.alone, self.standing = self.kinds[:, 0], self.kinds[:, 1]
         self.events = np.zeros(c, dtype=np.int64)
