@@ -73,10 +73,7 @@ def planter(graph: Graph, creatures: int = 1, floor: Floor | None = None) -> Gra
     return GraphFeet(FootPlanter(holding[0], creatures, floor), np.zeros((creatures, len(tips)), dtype=bool))
 
 
-STAND_RISE, STAND_DELAY, STAND_LAND = STEP_RISE, STEP_DELAY, STEP_LAND
-
-
-def _step_lift(p: FootPlanter, swinging: np.ndarray, rise_time=STEP_RISE, land_at=STEP_LAND) -> np.ndarray:
+def _step_lift(p: FootPlanter, swinging: np.ndarray) -> np.ndarray:
     """How much of the least swing lift a re-placed foot has ``(C, L)``: a step, not a hop. None while it is still
     held (it is let go this frame); rising by smoothstep over ``STEP_RISE`` from its release (its height's time,
     which does not wait); and coming back down as its offset from where the verb has it (the planter's, as of the
@@ -87,8 +84,8 @@ def _step_lift(p: FootPlanter, swinging: np.ndarray, rise_time=STEP_RISE, land_a
     verbs hold it): a walk's foot re-placed as it rolled off, in a stop, was brought down onto the walk's swing
     where the blend with the stand drew it along the floor, and its toe skidded 17 cm."""
     off = p._offset()
-    rise = _smoothstep(p.since[..., 1] / rise_time)
-    land = _smoothstep((np.hypot(off[..., 0], off[..., 2]) - REPLANTED) / (land_at - REPLANTED))
+    rise = _smoothstep(p.since[..., 1] / STEP_RISE)
+    land = _smoothstep((np.hypot(off[..., 0], off[..., 2]) - REPLANTED) / (STEP_LAND - REPLANTED))
     return np.where(p.mode == FREE, rise * np.maximum(land, swinging), 0.0)
 
 
@@ -108,11 +105,7 @@ def plant(feet: GraphFeet, frame: Frame, dt: float, alone: np.ndarray, standing:
     p = feet.planter
     held = frame.held & ~feet.replanting
     swinging = np.where(frame.held, 0.0, frame.swing)
-    st = np.zeros(len(alone), dtype=bool) if standing is None else standing
-    rise_time = np.where(st, STAND_RISE, STEP_RISE)[:, None]
-    land_at = np.where(st, STAND_LAND, STEP_LAND)[:, None]
-    delay = np.where(st, STAND_DELAY, STEP_DELAY)[:, None]
-    swing = np.where(feet.replanting, _step_lift(p, swinging, rise_time, land_at), frame.swing)  # a foot re-placed steps: at the least lift
+    swing = np.where(feet.replanting, _step_lift(p, swinging), frame.swing)  # a foot re-placed steps: at the least lift
     out = p.step(frame.rotations, frame.translations, None, dt, (held, frame.roll, swing, frame.lifts))
     # A foot the planter let go out of its leg's reach (``spent``) that the verbs hold flat is re-placed, a step
     # from its release: it stayed free until the verbs' hold ended, and a stand's, a bow's or a guide's never does
@@ -124,8 +117,8 @@ def plant(feet: GraphFeet, frame: Frame, dt: float, alone: np.ndarray, standing:
         # at rest until then (the lift comes first); its height does not wait.
         going = feet.replanting & (p.mode == FREE) & (p.since[..., 1] == 0.0)
         for a in (0, 2):
-            p.offset[..., a] += np.where(going, p.offset_vel[..., a] * delay, 0.0)
-            p.since[..., a] = np.where(going, -delay, p.since[..., a])
+            p.offset[..., a] += np.where(going, p.offset_vel[..., a] * STEP_DELAY, 0.0)
+            p.since[..., a] = np.where(going, -STEP_DELAY, p.since[..., a])
         settled = np.linalg.norm(p._offset(), axis=-1) < REPLANTED
         feet.replanting &= ~((p.mode == FREE) & settled & (p.since[..., 0] > 0))
     away = p.prev_free - p.target
