@@ -690,16 +690,17 @@ def _plant(lo, hi, dt, outputs, planted, feet, start, k_):  # pragma: no cover -
                 if mode[c, i] == FREE and norm < k_[_REPLANTED] and since[c, i, 0] > 0:
                     replanting[c, i] = False
         # Held flat too far from where the verbs have it (planted.plant; standing: planted._standing_far).
-        flat_all, mx, mz, further, most = True, 0.0, 0.0, 0, -1.0
-        for i in range(n_l):
-            flat_all = flat_all and mode[c, i] == BALL and turn[c, i] == 0.0
-            mx += prev_free[c, i, 0] - target[c, i, 0]
-            mz += prev_free[c, i, 2] - target[c, i, 2]
-            gap = math.hypot(prev_free[c, i, 0] - target[c, i, 0], prev_free[c, i, 2] - target[c, i, 2])
-            if gap > most:
-                further, most = i, gap
-        standing = kinds[c, 1]
-        shifted = standing and flat_all and math.hypot(mx / n_l, mz / n_l) > k_[_SHIFTED]
+        standing, shifted, further = kinds[c, 1], False, 0
+        if standing:  # the body off its feet: every foot held flat, their mean offset over SHIFTED; the further one
+            flat_all, mx, mz, most = True, 0.0, 0.0, -1.0
+            for i in range(n_l):
+                flat_all = flat_all and mode[c, i] == BALL and turn[c, i] == 0.0
+                mx += prev_free[c, i, 0] - target[c, i, 0]
+                mz += prev_free[c, i, 2] - target[c, i, 2]
+                gap = math.hypot(prev_free[c, i, 0] - target[c, i, 0], prev_free[c, i, 2] - target[c, i, 2])
+                if gap > most:
+                    further, most = i, gap
+            shifted = flat_all and math.hypot(mx / n_l, mz / n_l) > k_[_SHIFTED]
         far = k_[_STANDING] if standing else (k_[_REPLANT] if kinds[c, 0] else k_[_LEFT_BEHIND])
         for i in range(n_l):
             if mode[c, i] == BALL and turn[c, i] == 0.0:
