@@ -58,7 +58,8 @@ from ..verb._sampling_kernel import GENERIC, VELOCITIES, goal_weight, phase, que
 STARTED, FINISHED = 1, 2  # events: a transition started, or finished, this frame
 FREE, BALL = 0, 2  # planting.FREE, planting.BALL
 # Where each constant sits in ``k_`` (see frame.FramePass).
-_LATE, _MIN_DURATION, _INERTIAL, _LN2, _REPLANT, _REPLANTED, _SWING, _LIFT, _LANDS, _LEFT_BEHIND, _RISE, _DELAY, _LAND, _MIN_LOOP, _STANDING, _SHIFTED = range(16)
+(_LATE, _MIN_DURATION, _INERTIAL, _LN2, _REPLANT, _REPLANTED, _SWING, _LIFT, _LANDS, _LEFT_BEHIND, _RISE, _DELAY, _LAND, _MIN_LOOP,
+ _STANDING, _SHIFTED, _SWING_LIFT) = range(17)
 
 
 # ----- the tables, packed: per verb, a slice of a flat array (see frame.tables and FramePass) ------------------
@@ -490,6 +491,8 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
                 lifts[c, i] = alpha * ea + (1.0 - alpha) * xb[i] if math.isfinite(ea) and math.isfinite(xb[i]) else -np.inf
                 ha, ra, sa = held[c, i], roll[c, i], swing[c, i]
                 held[c, i] = (ha and (hb[i] or first)) or (hb[i] and not ha and sa < k_[_LANDS])
+                if hb[i] and not ha and sa < k_[_LANDS]:  # taken from A's swing: held from A's least lift
+                    lifts[c, i] = max(lifts[c, i], k_[_SWING_LIFT] * sa)
                 if ha and hb[i]:
                     roll[c, i] = max(ra, rb[i])
                 elif not first:

@@ -134,7 +134,7 @@ def _constants() -> np.ndarray:
         graph_state._LATE, graph_state.MIN_DURATION, graph_state.INERTIAL_HALFLIFE, planting._LN2, planted.REPLANT,
         planted.REPLANTED, planting.SWING_HALFLIFE, planting.LIFT_HALFLIFE, player.LANDS,
         planted.LEFT_BEHIND, planted.STEP_RISE, planted.STEP_DELAY, planted.STEP_LAND, graph_state.MIN_LOOP,
-        planted.STANDING, planted.SHIFTED,
+        planted.STANDING, planted.SHIFTED, planting.SWING_LIFT,
     ])  # fmt: skip
 
 
