@@ -384,8 +384,10 @@ def test_a_gesture_asked_for_late_in_a_stand_blends_as_long_as_one_asked_for_at_
     assert len(entries) >= 3, entries
     lengths = []
     for _, _, a, b in entries:
-        if perf.active[a - 1] < 0:  # begun from the stand playing alone (not an interrupted blend: B at once)
-            lengths.append(int(np.count_nonzero(perf.active[a:b] == perf.active[a])))
+        frames = int(np.count_nonzero(perf.active[a:b] == perf.active[a]))
+        cut = any(a / FPS <= cue.time < (a + frames) / FPS for cue in cues)  # a later command cut it short
+        if perf.active[a - 1] < 0 and not cut:  # begun from the stand playing alone (not an interrupted blend: B at once)
+            lengths.append(frames)
         fastest = speed[max(a - 1, 0) : b].max()
         assert fastest <= 1.5 * own, f"idle→guide at {a / FPS:.2f} s: the trunk at {fastest / own:.2f}x its verbs' own"
     assert len(lengths) >= 2 and max(lengths) - min(lengths) <= 1, lengths  # frames: one blend, whenever it began

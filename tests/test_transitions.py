@@ -174,10 +174,10 @@ NOT_YET = {
     # Toe windows the scripts met once their verbs stayed where the cues put them (session 44; they had wandered by
     # likelihood between cues): a run's and a walk's loops into themselves, and the CMU walk → run.
     ("bandai", "run", "run", "toe"): 0.025, ("cmu", "walk", "walk", "toe"): 0.035, ("cmu", "walk", "run", "toe"): 0.035,
-    ("bandai", "idle", "idle", "legs"): 19.6,  # a foot re-placed in a stand: a step at 200-320 deg/s, where the
+    ("bandai", "idle", "idle", "legs"): 19.1,  # a foot re-placed in a stand: a step at 200-320 deg/s, where the
     ("bandai", "idle", "reach", "legs"): 3.95,  # ... stand's legs turn at 10-60
-    ("bandai", "idle", "bow", "trunk"): 3.1,  # a bow cutting a stand's loop short: the head at 67 deg/s, the bow's 22
-    ("bandai", "idle", "idle", "trunk"): 1.9,  # a stand's loop into itself
+    ("bandai", "idle", "bow", "trunk"): 2.4,  # a bow cutting a stand's loop short turns the head fast (3.1x until session 45)
+    # (a stand's loop into itself turned the trunk at 1.9x until it blended into 0.7 of the stand, session 45)
     ("bandai", "walk", "idle", "acc"): 1.85, ("bandai", "walk", "idle", "arms"): 1.65, ("bandai", "walk", "run", "arms"): 1.6,
     ("cmu", "walk", "run", "arms"): 3.4, ("cmu", "run", "walk", "arms"): 2.5,  # a forearm bending 80° in 0.19 s
     ("cmu", "walk", "run", "acc"): 1.6,
@@ -321,7 +321,7 @@ def test_a_stop_begun_as_the_walk_rolls_a_foot_off_keeps_it_up(graphs):
     points = _points_in_effect(adverbs, script)
     owns = [_own(graph, "walk", toes, 3, p)["toe"] for _, _, p in points]
     stops = _windows(perf, graph, {("walk", "idle")})
-    assert len(stops) >= 3, stops
+    assert len(stops) >= 2, stops  # the one at 24.9 s begins as the walk rolls the right foot off
     for _, _, a, b in stops:
         own = max(o for (start, end, _), o in zip(points, owns) if start <= b / FPS and a / FPS < end)
         travel = low_travel(pos, contact, np.arange(a, b))
