@@ -229,7 +229,7 @@ def test_bad_commands_are_refused_and_the_run_goes_on(cmu):
     refused = [e for e in sim.log if e["status"] == "refused"]
     assert [e["time"] for e in refused][-3:] == [1.5, 1.6, 1.7]
     assert "no verb 'fly'" in refused[-3]["reason"] and "finite" in refused[-2]["reason"] and "out of range" in refused[-1]["reason"]
-    assert len(caught) == 3
+    assert len([w for w in caught if issubclass(w.category, AdverbsWarning)]) == 3  # (not a warning from elsewhere)
     assert c.verb == "run" and sim.frames == 120
     assert np.linalg.norm(np.subtract(c.root[:2], before[:2])) > 3.0  # it kept moving all along
 

@@ -49,6 +49,9 @@ class Spool:
             self._files = tuple(open(p, "wb") for p in (self._poses, self._modes_path, self._turns_path))  # noqa: SIM115
         except OSError as e:
             raise AdverbsError(f"{folder}: cannot write the recording kept as the run goes: {e.strerror or e}") from None
+        # Closed by close(), or when the spool is collected: a simulation never closed (dropped by its caller) left its
+        # three files open until exit, and Python warned of each as the collector found it, inside whatever ran then.
+        self._close = weakref.finalize(self, _close_all, self._files)
         self._batch = np.empty((BATCH, *self.shape))
         self._modes = np.empty((BATCH, creatures, feet), dtype=np.int8)
         self._turns = np.empty((BATCH, creatures, feet))
@@ -131,8 +134,12 @@ class Spool:
 
     def close(self) -> None:
         """Close the files (the folder they are in is removed with it)."""
-        for f in self._files:
-            f.close()
+        self._close()
+
+
+def _close_all(files) -> None:
+    for f in files:
+        f.close()
 
 
 class EventLog:
