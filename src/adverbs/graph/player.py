@@ -512,7 +512,8 @@ def hold_phases(state: GraphState) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
     alone = state.active < 0
     alpha = blend_weight(state.beta)[:, None]  # A's weight in a cosine blend
     first = alpha >= 0.5
-    major = (ha & (hb | first)) | (hb & ~ha & (sa < LANDS))
+    taken = hb & ~ha & (sa < LANDS)  # B takes a foot from A's swing as A begins to land it
+    major = (ha & (hb | first)) | taken
     both = ha & hb
     held = np.where(alone[:, None], ha, np.where(inertial[:, None], hb, major))
     roll = np.where(alone[:, None], ra, np.where(inertial[:, None], rb, np.where(both, np.maximum(ra, rb), np.where(first, ra, rb))))
@@ -523,10 +524,9 @@ def hold_phases(state: GraphState) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
     swing = np.where(alone[:, None], sa, np.where(inertial[:, None], sb, lift))
     mixed = np.where(np.isfinite(ea) & np.isfinite(eb), alpha * np.where(np.isfinite(ea), ea, 0.0)
                      + (1.0 - alpha) * np.where(np.isfinite(eb), eb, 0.0), -np.inf)  # fmt: skip
+    # A foot B takes from A's swing is held from where A's swing held it: no lower than the least lift A kept under
+    # it (the planter lands a foot where it shows it and settles it onto the floor). Dropped to the verbs' own height
+    # at once, a stop's swinging toe fell 29 mm in a frame, the knee at 495 deg/s.
+    mixed = np.where(taken, np.maximum(mixed, SWING_LIFT * sa), mixed)
     lifts = np.where(alone[:, None], ea, np.where(inertial[:, None], eb, mixed))
-    # A foot B takes from A's swing as A begins to land it is held from where A's swing held it: no lower than the
-    # least lift A kept under it (the planter lands a foot where it shows it and settles it onto the floor). Dropped
-    # to the verbs' own height at once, a stop's swinging toe fell 29 mm in a frame, the knee at 495 deg/s.
-    taken = ~alone[:, None] & ~inertial[:, None] & hb & ~ha & (sa < LANDS)
-    lifts = np.where(taken, np.maximum(lifts, SWING_LIFT * sa), lifts)
     return held, roll, swing, lifts

@@ -490,8 +490,9 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
                 ea = lifts[c, i]
                 lifts[c, i] = alpha * ea + (1.0 - alpha) * xb[i] if math.isfinite(ea) and math.isfinite(xb[i]) else -np.inf
                 ha, ra, sa = held[c, i], roll[c, i], swing[c, i]
-                held[c, i] = (ha and (hb[i] or first)) or (hb[i] and not ha and sa < k_[_LANDS])
-                if hb[i] and not ha and sa < k_[_LANDS]:  # taken from A's swing: held from A's least lift
+                taken = hb[i] and not ha and sa < k_[_LANDS]  # B takes it from A's swing as A begins to land it
+                held[c, i] = (ha and (hb[i] or first)) or taken
+                if taken:  # held from A's least lift (player.hold_phases)
                     lifts[c, i] = max(lifts[c, i], k_[_SWING_LIFT] * sa)
                 if ha and hb[i]:
                     roll[c, i] = max(ra, rb[i])
