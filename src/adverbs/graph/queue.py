@@ -13,7 +13,9 @@ import numpy as np
 
 from .structure import CommandRefused
 from .clocks import _sampling, clock_of, duration
-from .state import INERTIAL_HALFLIFE, INTERRUPT_HALFLIFE, MIN_DURATION, MIN_LOOP, _LATE, GraphState, _settle_queue, sync_head
+from .state import (
+    INERTIAL_HALFLIFE, INTERRUPT_HALFLIFE, MIN_DURATION, MIN_LOOP, UPPER_BODY_BLEND, _LATE, GraphState, _settle_queue, sync_head,
+)  # fmt: skip
 
 
 def command(state: GraphState, creature: int, verb: str | int, stay: bool = False) -> list[int]:
@@ -77,6 +79,8 @@ def _reverse(state: GraphState, c: int) -> None:
     state.verb[c], state.into[c] = state.into[c], state.verb[c]
     state.g[c], state.g_into[c] = state.g_into[c], state.g[c]
     state.beta[c] = back
+    if state.upper_of[c] == state.active[c] and state.upper_since[c] < UPPER_BODY_BLEND:
+        state.upper_take[c] = True  # the upper body carried on from the pose shown, onto the verb now entered
 
 
 def _interrupt(state: GraphState, c: int) -> None:
@@ -141,6 +145,8 @@ def _start(state: GraphState, c: int, late: float, inertial: bool = False) -> No
     if state.inertial[c]:  # B at once, the pose shown decaying onto it
         state.rebase[c] = True
         state.offset_halflife[c] = max(INERTIAL_HALFLIFE * state.length[c], INTERRUPT_HALFLIFE if inertial else 0.0)
+    elif graph.carries_upper_body[k] and state.length[c] < UPPER_BODY_BLEND:
+        state.upper_take[c] = True  # the upper body: B at once, the pose shown's difference carried on
 
 
 def _finish(state: GraphState, c: int) -> None:

@@ -211,6 +211,34 @@ class Graph:
         return np.array([t.source != t.target for t in self.transitions], dtype=bool)
 
     @cached_property
+    def carries_upper_body(self) -> np.ndarray:
+        """Whether each transition ``(T,)`` is a cosine blend from one cycle into another (a walk into a run), whose
+        upper body is carried on past a short blend (:data:`adverbs.graph.state.UPPER_BODY_BLEND`)."""
+        cyclic = self.cyclic
+        return np.array(
+            [t.source != t.target and t.blend == "cosine" and cyclic[t.source] and cyclic[t.target] for t in self.transitions],
+            dtype=bool,
+        )
+
+    @cached_property
+    def upper_body(self) -> np.ndarray:
+        """The joints of the upper body ``(U,)``: every joint neither on a leg (a held foot's hip and what hangs from
+        it) nor on the way from the root to the hips; none in a graph whose verbs hold no feet."""
+        chains = next((v.leg_chains for v in self.verbs if v.constraints), None)
+        if chains is None:
+            return np.zeros(0, dtype=np.int64)
+        parents = self.skeleton.parents
+        hips, above = {int(j) for j in chains.upper}, {int(j) for j in chains.above}
+        out = []
+        for j in range(len(parents)):
+            k = j
+            while k >= 0 and k not in hips:
+                k = int(parents[k])
+            if k < 0 and j not in above:
+                out.append(j)
+        return np.array(out, dtype=np.int64)
+
+    @cached_property
     def hold_layout(self) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
         """Per verb: its holds' opening generic times ``(L_v,)`` and which of :attr:`feet` each hold is ``(L_v,)``."""
         return tuple(
