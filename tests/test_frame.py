@@ -81,8 +81,8 @@ def test_compiled_frames_equal_the_reference_over_a_minute_of_twelve_creatures(g
     assert {"transition", "perform", "adverbs"} <= kinds  # the run took transitions and changed adverbs
     transitions = [e for e in compiled.log if e["command"] == "transition"]
     assert len({(e["from"], e["to"]) for e in transitions}) >= min(5, len(graph.transitions))  # of several kinds
-    # The upper body carried past walk ↔ run blends (player._upper_body), in both.
-    assert all((g.state.upper_of >= 0).any() for g in (*compiled._groups.values(), *reference._groups.values()))
+    # The arms carried past walk ↔ run blends (player._arms), in both.
+    assert all((g.state.arms_of >= 0).any() for g in (*compiled._groups.values(), *reference._groups.values()))
 
 
 def test_compiled_frames_equal_the_reference_on_the_demo_script(graphs):

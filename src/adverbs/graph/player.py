@@ -66,7 +66,7 @@ from ._time_kernel import hold_rows
 from .structure import Graph
 from .clocks import _by_verb, _clock, _generic, _hold_times, _later, _place, _rates, _sampling, blend_weight
 from .queue import _finish, _start
-from .state import UPPER_BODY_BLEND, _LATE, GraphState
+from .state import ARMS_BLEND, _LATE, GraphState
 
 LANDS = 1.0  # a foot B holds and A swings lands once A's swing lift is below this: as soon as A begins to land it
 
@@ -297,7 +297,7 @@ def _step(state: GraphState, dt: float) -> Frame:
             live, state.offset_since[live], state.offset_halflife[live], state.offset_rot, state.offset_rot_vel,
             state.offset_trans, state.offset_trans_vel, rot, trans,
         )  # fmt: skip
-    _upper_body(state, rot, rot_b, rows if before is not None else rows[:0], dt)
+    _arms(state, rot, rot_b, rows if before is not None else rows[:0], dt)
     held, roll, swing, lifts = hold_phases(state)
     blended = np.zeros(state.creatures, dtype=bool)
     blended[live] = True
@@ -314,48 +314,48 @@ def _step(state: GraphState, dt: float) -> Frame:
     return Frame(rot, trans, new_root.copy(), vel, held, roll, swing, lifts)
 
 
-def _upper_body(state: GraphState, rot: np.ndarray, rot_b: np.ndarray | None, rebased: np.ndarray, dt: float) -> None:
-    """The upper body carried past a short blend from one cycle into another (``UPPER_BODY_BLEND``), onto the
-    rotations ``rot (C, J, 4)`` in place; ``rot_b``: B's own (None without B); ``rebased``: the creatures whose whole
-    pose took an offset this frame (it carries the upper body's on: theirs ends).
+def _arms(state: GraphState, rot: np.ndarray, rot_b: np.ndarray | None, rebased: np.ndarray, dt: float) -> None:
+    """The arms carried past a short blend from one cycle into another (``ARMS_BLEND``), onto the rotations
+    ``rot (C, J, 4)`` in place; ``rot_b``: B's own (None without B); ``rebased``: the creatures whose whole pose took
+    an offset this frame (it carries the arms' on: theirs ends).
 
     Where the blend starts (and where it is turned back), the difference between the pose shown a frame ago and B's
-    then is taken (``x₀``, rotation vectors of the upper body's joints) with the difference of their velocities since
-    (``v₀``), as an interruption's offset is. Through that blend the upper body plays B and, until
-    ``T = UPPER_BODY_BLEND`` after, shows ``exp(o(t))`` before the verbs' rotations, ``o(t) = w(t / T) x₀ + v₀ t
+    then is taken (``x₀``, rotation vectors of the arms' joints) with the difference of their velocities since
+    (``v₀``), as an interruption's offset is. Through that blend the arms play B and, until
+    ``T = ARMS_BLEND`` after, shows ``exp(o(t))`` before the verbs' rotations, ``o(t) = w(t / T) x₀ + v₀ t
     (1 − t / T)³`` with ``w(u) = ½ cos(π u) + ½``: the pose shown and its velocity at the start, none of it (and no
     velocity) at ``T``. A walk → run's forearm bending 80° in a 0.19 s blend turned at 3.3x its verbs' own; now
     1.2-1.3x.
     """
-    up = state.graph.upper_body
-    state.upper_since += dt
-    state.upper_since[rebased] = np.inf
-    take = np.flatnonzero(state.upper_take & (state.active >= 0))  # (a blend begun and over within a frame: none)
-    state.upper_take[:] = False
+    up = state.graph.arms
+    state.arms_since += dt
+    state.arms_since[rebased] = np.inf
+    take = np.flatnonzero(state.arms_take & (state.active >= 0))  # (a blend begun and over within a frame: none)
+    state.arms_take[:] = False
     if len(take) and state.shown is not None and len(up):
         # B a frame ago, by its clock (player._back).
         _, g_b = _back(state, take, dt)
         was, _ = _decoded(state, _dofs(state, state.into, g_b, 1, take), state.root)
         shown = state.shown[0][take][:, up]
         then = was[take][:, up]
-        state.upper_rot[take] = 0.0
-        state.upper_vel[take] = 0.0
-        state.upper_rot[take[:, None], up] = _relative(shown, then)
+        state.arms_rot[take] = 0.0
+        state.arms_vel[take] = 0.0
+        state.arms_rot[take[:, None], up] = _relative(shown, then)
         if state.shown_before is not None:
-            state.upper_vel[take[:, None], up] = (
+            state.arms_vel[take[:, None], up] = (
                 _relative(shown, state.shown_before[0][take][:, up]) - _relative(rot_b[take][:, up], then)
             ) / dt
-        state.upper_since[take] = dt
-        state.upper_of[take] = state.active[take]
-    live = np.flatnonzero(state.upper_since < UPPER_BODY_BLEND)
+        state.arms_since[take] = dt
+        state.arms_of[take] = state.active[take]
+    live = np.flatnonzero(state.arms_since < ARMS_BLEND)
     if len(live) == 0:
         return
-    own = live[(state.active[live] >= 0) & (state.active[live] == state.upper_of[live])]  # in the blend that took it
+    own = live[(state.active[live] >= 0) & (state.active[live] == state.arms_of[live])]  # in the blend that took it
     if len(own):
         rot[own[:, None], up] = rot_b[own[:, None], up]
-    t = state.upper_since[live, None, None]
-    u = t / UPPER_BODY_BLEND
-    o = (0.5 * np.cos(np.pi * u) + 0.5) * state.upper_rot[live][:, up] + state.upper_vel[live][:, up] * t * (1.0 - u) ** 3
+    t = state.arms_since[live, None, None]
+    u = t / ARMS_BLEND
+    o = (0.5 * np.cos(np.pi * u) + 0.5) * state.arms_rot[live][:, up] + state.arms_vel[live][:, up] * t * (1.0 - u) ** 3
     rot[live[:, None], up] = quat.mul(quat.exp(o), rot[live[:, None], up])
 
 

@@ -14,7 +14,7 @@ import numpy as np
 from .structure import CommandRefused
 from .clocks import _sampling, clock_of, duration
 from .state import (
-    INERTIAL_HALFLIFE, INTERRUPT_HALFLIFE, MIN_DURATION, MIN_LOOP, UPPER_BODY_BLEND, _LATE, GraphState, _settle_queue, sync_head,
+    INERTIAL_HALFLIFE, INTERRUPT_HALFLIFE, MIN_DURATION, MIN_LOOP, ARMS_BLEND, _LATE, GraphState, _settle_queue, sync_head,
 )  # fmt: skip
 
 
@@ -79,8 +79,8 @@ def _reverse(state: GraphState, c: int) -> None:
     state.verb[c], state.into[c] = state.into[c], state.verb[c]
     state.g[c], state.g_into[c] = state.g_into[c], state.g[c]
     state.beta[c] = back
-    if state.upper_of[c] == state.active[c] and state.upper_since[c] < UPPER_BODY_BLEND:
-        state.upper_take[c] = True  # the upper body carried on from the pose shown, onto the verb now entered
+    if state.arms_of[c] == state.active[c] and state.arms_since[c] < ARMS_BLEND:
+        state.arms_take[c] = True  # the arms carried on from the pose shown, onto the verb now entered
 
 
 def _interrupt(state: GraphState, c: int) -> None:
@@ -145,8 +145,8 @@ def _start(state: GraphState, c: int, late: float, inertial: bool = False) -> No
     if state.inertial[c]:  # B at once, the pose shown decaying onto it
         state.rebase[c] = True
         state.offset_halflife[c] = max(INERTIAL_HALFLIFE * state.length[c], INTERRUPT_HALFLIFE if inertial else 0.0)
-    elif graph.carries_upper_body[k] and state.length[c] < UPPER_BODY_BLEND:
-        state.upper_take[c] = True  # the upper body: B at once, the pose shown's difference carried on
+    elif graph.carries_arms[k] and state.length[c] < ARMS_BLEND:
+        state.arms_take[c] = True  # the arms: B at once, the pose shown's difference carried on
 
 
 def _finish(state: GraphState, c: int) -> None:

@@ -23,9 +23,9 @@ INERTIAL_HALFLIFE = 0.2  # of a transition's duration: the half-life of an inert
 INTERRUPT_HALFLIFE = 0.2  # seconds: the shortest half-life of the offset an interruption leaves
 # A walk's and a run's feet agree over a quarter of their cycles, so their blends last 0.2-0.3 s; the arms, bent 80°
 # more in a run, turned at 2.5-3.9x their verbs' own fastest through them. Past a blend from one cycle into another
-# that is shorter than this, the upper body (Graph.upper_body) plays the verb entered at once and carries the pose
-# shown's difference from it on, fading over this long (player._upper_body).
-UPPER_BODY_BLEND = 1.6  # seconds
+# that is shorter than this, the arms (Graph.arms) play the verb entered at once and carry the pose shown's
+# difference from it on, fading over this long (player._arms).
+ARMS_BLEND = 1.6  # seconds
 MIN_DURATION = 0.1  # seconds: no transition is shorter (but a verb's loop into itself, :data:`MIN_LOOP`)
 # A verb's loop into itself blends two instances of one verb at one phase, so a short blend pops nothing; stretched to
 # MIN_DURATION, a loop begun late near its region's end slowed the verb's clock tenfold (a CMU run's root from 3 to
@@ -43,8 +43,8 @@ class GraphState:
     (−1: none), its ``beta``, ``length`` (seconds) and ``regions (C, 4)`` (A's and B's, generic time, as it
     started); ``root (C, 3)`` = (x, z, heading); ``queue`` the transitions to come; ``goal`` the verb last
     asked for until it plays (−1: none) and when it was asked; the decaying offsets of inertial blends
-    and interruptions; the upper body's offset a blend from one cycle into another carries on (``upper_rot``,
-    ``upper_vel (C, J, 3)``, taken ``upper_since`` seconds ago for transition ``upper_of``; ``upper_take``: take it
+    and interruptions; the arms' offset a blend from one cycle into another carries on (``arms_rot``,
+    ``arms_vel (C, J, 3)``, taken ``arms_since`` seconds ago for transition ``arms_of``; ``arms_take``: take it
     at the next frame); the last two frames shown (for the velocities an interruption carries on).
     """
 
@@ -72,11 +72,11 @@ class GraphState:
     offset_root: np.ndarray
     offset_since: np.ndarray
     offset_halflife: np.ndarray
-    upper_rot: np.ndarray | None = None
-    upper_vel: np.ndarray | None = None
-    upper_since: np.ndarray | None = None
-    upper_of: np.ndarray | None = None
-    upper_take: np.ndarray | None = None
+    arms_rot: np.ndarray | None = None
+    arms_vel: np.ndarray | None = None
+    arms_since: np.ndarray | None = None
+    arms_of: np.ndarray | None = None
+    arms_take: np.ndarray | None = None
     shown: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
     shown_before: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
     inertial: np.ndarray | None = None
@@ -137,9 +137,9 @@ def new_state(
         np.zeros((c, 3)), np.full(c, 1e9), np.full(c, INTERRUPT_HALFLIFE),
     )  # fmt: skip
     state.inertial = np.zeros(c, dtype=bool)
-    state.upper_rot, state.upper_vel = np.zeros((c, j, 3)), np.zeros((c, j, 3))
-    state.upper_since, state.upper_of = np.full(c, np.inf), np.full(c, -1, dtype=np.int64)
-    state.upper_take = np.zeros(c, dtype=bool)
+    state.arms_rot, state.arms_vel = np.zeros((c, j, 3)), np.zeros((c, j, 3))
+    state.arms_since, state.arms_of = np.full(c, np.inf), np.full(c, -1, dtype=np.int64)
+    state.arms_take = np.zeros(c, dtype=bool)
     state.stay = np.array(np.broadcast_to(np.asarray(stay, dtype=bool), (c,)))
     state.head = np.full(c, -1, dtype=np.int64)
     for k in range(c):

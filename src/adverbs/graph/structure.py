@@ -211,9 +211,9 @@ class Graph:
         return np.array([t.source != t.target for t in self.transitions], dtype=bool)
 
     @cached_property
-    def carries_upper_body(self) -> np.ndarray:
+    def carries_arms(self) -> np.ndarray:
         """Whether each transition ``(T,)`` is a cosine blend from one cycle into another (a walk into a run), whose
-        upper body is carried on past a short blend (:data:`adverbs.graph.state.UPPER_BODY_BLEND`)."""
+        arms are carried on past a short blend (:data:`adverbs.graph.state.ARMS_BLEND`)."""
         cyclic = self.cyclic
         return np.array(
             [t.source != t.target and t.blend == "cosine" and cyclic[t.source] and cyclic[t.target] for t in self.transitions],
@@ -221,22 +221,31 @@ class Graph:
         )
 
     @cached_property
-    def upper_body(self) -> np.ndarray:
-        """The joints of the upper body ``(U,)``: every joint neither on a leg (a held foot's hip and what hangs from
-        it) nor on the way from the root to the hips; none in a graph whose verbs hold no feet."""
+    def arms(self) -> np.ndarray:
+        """The joints of the arms ``(U,)``: of the upper body (every joint neither on a leg, a held foot's hip and what
+        hangs from it, nor on the way from the root to the hips), what hangs from its first joint with more than one
+        child (the chest), but for the smallest of those branches (the neck and head). None in a graph whose verbs
+        hold no feet or whose upper body does not branch."""
         chains = next((v.leg_chains for v in self.verbs if v.constraints), None)
         if chains is None:
             return np.zeros(0, dtype=np.int64)
-        parents = self.skeleton.parents
+        parents = np.asarray(self.skeleton.parents)
         hips, above = {int(j) for j in chains.upper}, {int(j) for j in chains.above}
-        out = []
-        for j in range(len(parents)):
-            k = j
-            while k >= 0 and k not in hips:
-                k = int(parents[k])
-            if k < 0 and j not in above:
-                out.append(j)
-        return np.array(out, dtype=np.int64)
+
+        def under(j: int) -> list[int]:  # j and every joint that hangs from it
+            out, todo = [], [j]
+            while todo:
+                k = todo.pop()
+                out.append(k)
+                todo += [int(i) for i in np.flatnonzero(parents == k)]
+            return out
+
+        upper = [j for j in range(len(parents)) if j not in above and int(parents[j]) in above and j not in hips]
+        for j in sorted(k for top in upper for k in under(top)):
+            branches = sorted((under(int(i)) for i in np.flatnonzero(parents == j)), key=len)
+            if len(branches) > 1:
+                return np.array(sorted(k for b in branches[1:] for k in b), dtype=np.int64)
+        return np.zeros(0, dtype=np.int64)
 
     @cached_property
     def hold_layout(self) -> tuple[tuple[np.ndarray, np.ndarray], ...]:

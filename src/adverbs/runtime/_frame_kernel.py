@@ -4,7 +4,7 @@
 path, which stays the reference) for every creature at once, with no Python per creature: clocks (a verb alone
 by its own, a transition by ``β``; a transition starting or finishing where the region says) → the verbs
 sampled (one, or two in a blend) → root velocities blended → root advanced → poses decoded and blended → the
-decaying offsets of inertial blends and interruptions → the upper body carried past a short blend → hold phases → the body carried by the held feet → the
+decaying offsets of inertial blends and interruptions → the arms carried past a short blend → hold phases → the body carried by the held feet → the
 feet planted (the planter's own kernel, :func:`adverbs.feet._planting_kernel.step`) → feet to re-place.
 
 Each piece calls the same compiled arithmetic the reference path calls (the sampling query, the decode, the
@@ -30,10 +30,10 @@ Arguments come in tuples (``frame.FramePass`` lays them out once):
   offsets) and their root accelerations through their cycle (``Verb.root_acceleration_profile`` ``(E, S, 3)``: flat,
   offsets).
 * ``transitions``: ``regions (T, 4)`` (source start and end, target start and end), ``target (T,)``,
-  ``inertial (T,)``, ``between (T,)`` (from one verb to another), ``upper (T,)`` (carries the upper body on:
-  ``Graph.carries_upper_body``).
+  ``inertial (T,)``, ``between (T,)`` (from one verb to another), ``arms (T,)`` (carries the arms on:
+  ``Graph.carries_arms``).
 * ``skeleton``: ``parents (J,)``, the graph's feet ``(L,)``, the inverse rest rotation above the body root ``(4,)``,
-  the body root, the upper body's joints ``(U,)`` (``Graph.upper_body``).
+  the body root, the arms' joints ``(U,)`` (``Graph.arms``).
 * ``caches = (tables, offsets)``: each creature's ``weights``, ``keytimes``, ``seam``, ``goal`` and hold times of
   every verb, one ``(C, Σ)`` table per kind and slot (slot 0 the verb playing, 1 the one being entered: ``tables =
   (W0, W1, K0, K1, S0, S1, G0, G1, H0, H1)``), verb ``v``'s columns given by ``offsets`` (one array per kind). The verbs'
@@ -62,7 +62,7 @@ STARTED, FINISHED = 1, 2  # events: a transition started, or finished, this fram
 FREE, BALL = 0, 2  # planting.FREE, planting.BALL
 # Where each constant sits in ``k_`` (see frame.FramePass).
 (_LATE, _MIN_DURATION, _INERTIAL, _LN2, _REPLANT, _REPLANTED, _SWING, _LIFT, _LANDS, _LEFT_BEHIND, _RISE, _DELAY, _LAND, _MIN_LOOP,
- _STANDING, _SHIFTED, _SWING_LIFT, _UPPER) = range(18)
+ _STANDING, _SHIFTED, _SWING_LIFT, _ARMS) = range(18)
 
 
 # ----- the tables, packed: per verb, a slice of a flat array (see frame.tables and FramePass) ------------------
@@ -194,8 +194,8 @@ def _start(c, late, k, verbs, transitions, caches, state, k_):  # pragma: no cov
     if inertial[c]:  # B at once, the pose shown decaying onto it
         rebase[c] = True
         halflife[c] = max(k_[_INERTIAL] * length[c], 0.0)
-    elif transitions[4][k] and length[c] < k_[_UPPER]:
-        state[25][c] = True  # the upper body: B at once, the pose shown's difference carried on (queue._start)
+    elif transitions[4][k] and length[c] < k_[_ARMS]:
+        state[25][c] = True  # the arms: B at once, the pose shown's difference carried on (queue._start)
 
 
 @njit(cache=True)
@@ -408,7 +408,7 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
     offset_root, offset_since, offset_halflife, moving, root, held_before = state[15:21]
     rot, trans, vel_out, shown_rot, shown_trans, before_rot, before_trans, shown_vel = buffers
     held, roll, swing, kinds, events, g_settle, lifts = outputs
-    parents, feet, above_inv, body, upper = skeleton
+    parents, feet, above_inv, body, arms = skeleton
     d_a, d_b, e_a, e_b, vel, vel0, r1, r2, blend = scratch[:9]
     rot_b, trans_b, rot0, trans0, hb, rb, sb, wts = scratch[9:17]
     fk_now_pos, fk_now_rot, fk_was_pos, fk_was_rot, xb = scratch[17:]
@@ -479,8 +479,27 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
     if live:
         decay_row(offset_since[c], offset_halflife[c], offset_rot[c], offset_rot_vel[c], offset_trans[c],
                   offset_trans_vel[c], rot[c], trans[c], k_[_LN2])  # fmt: skip
-    _upper_body(c, dt, reb, has_shown, has_before, x0, z0, h0, x1, z1, h1, verbs, caches, state, skeleton[4], k_,
-                rot[c], shown_rot, before_rot, d_b, e_b, rot_b, trans_b, rot0, trans0, r1, r2, blend)  # fmt: skip
+    # The arms carried past a short blend from one cycle into another (player._arms): their offset taken
+    # where asked, ended where the whole pose took one, and shown while it lasts; rot_b holds B's rotations now
+    # unless the offset above decoded B a frame ago into it.
+    arms_since, arms_take = state[23], state[25]
+    arms_since[c] += dt
+    if reb:
+        arms_since[c] = np.inf
+    b_now = not reb
+    if arms_take[c]:
+        arms_take[c] = False
+        if has_shown and arms.shape[0] > 0 and active[c] >= 0:
+            b_now = _arms_take(c, dt, b_now, has_before, x0, z0, h0, x1, z1, h1, verbs, caches, state, arms, shown_rot,
+                                before_rot, d_b, e_b, rot_b, trans_b, rot0, trans0, r1, r2, blend)  # fmt: skip
+    if arms_since[c] < k_[_ARMS]:
+        if active[c] >= 0 and active[c] == state[24][c]:  # in the blend that took it: the arms play B
+            if not b_now:
+                _decode_verb(into[c], d_b, x1, z1, h1, verbs, rot_b, trans_b)
+            for i in range(arms.shape[0]):
+                for a in range(4):
+                    rot[c, arms[i], a] = rot_b[arms[i], a]
+        _arms_show(arms_since[c], k_[_ARMS], state[21][c], state[22][c], arms, rot[c])
     # Hold phases: A's, B's, or in a cosine blend A's while it has the weight, then both's (player.hold_phases).
     is_moving = active[c] >= 0
     inert = is_moving and inertial[c]
@@ -543,56 +562,45 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
 
 
 @njit(cache=True)
-def _upper_body(c, dt, reb, has_shown, has_before, x0, z0, h0, x1, z1, h1, verbs, caches, state, upper, k_, rot,
-                shown_rot, before_rot, d_b, e_b, rot_b, trans_b, rot0, trans0, r1, r2, blend):  # pragma: no cover  # fmt: skip
-    """``player._upper_body`` for creature ``c`` onto its rotations ``rot (J, 4)``: the upper body's offset taken
-    where asked (``upper_take``), ended where the whole pose took one (``reb``), and shown while it lasts. ``rot_b``
-    holds B's rotations now unless ``reb`` decoded B a frame ago into it."""
+def _arms_take(c, dt, b_now, has_before, x0, z0, h0, x1, z1, h1, verbs, caches, state, arms, shown_rot, before_rot,
+                d_b, e_b, rot_b, trans_b, rot0, trans0, r1, r2, blend):  # pragma: no cover  # fmt: skip
+    """``player._arms``'s taking of creature ``c``'s arms' offset (a frame now and then: not inlined), from
+    the pose shown and B a frame ago; returns whether ``rot_b`` now holds B's rotations now (decoded here unless
+    ``b_now`` says it did)."""
     into, g_into, active = state[2], state[3], state[4]
-    upper_rot, upper_vel, upper_since, upper_of, upper_take = state[21], state[22], state[23], state[24], state[25]
-    upper_since[c] += dt
-    if reb:
-        upper_since[c] = np.inf
-    b_now = not reb
-    if upper_take[c]:
-        upper_take[c] = False
-        if has_shown and upper.shape[0] > 0 and active[c] >= 0:
-            # B a frame ago, by its clock (player._back), and now.
-            _, rate_b = _rates(c, verbs, caches, state)
-            gb = _generic_of(_clock_of(g_into[c], into[c], 1, c, verbs, caches) - dt * rate_b, into[c], 1, c, verbs, caches)
-            _dofs(e_b, into[c], 1, c, gb, verbs, caches, blend)
-            _decode_verb(into[c], e_b, x0, z0, h0, verbs, rot0, trans0)
-            if not b_now:
-                _decode_verb(into[c], d_b, x1, z1, h1, verbs, rot_b, trans_b)
-                b_now = True
-            for i in range(upper.shape[0]):
-                j = upper[i]
-                _relative_into(shown_rot[c, j], rot0[j], upper_rot[c, j])
-                for a in range(3):
-                    upper_vel[c, j, a] = 0.0
-                if has_before:
-                    _relative_into(shown_rot[c, j], before_rot[c, j], r1)
-                    _relative_into(rot_b[j], rot0[j], r2)
-                    for a in range(3):
-                        upper_vel[c, j, a] = (r1[a] - r2[a]) / dt
-            upper_since[c] = dt
-            upper_of[c] = active[c]
-    t = upper_since[c]
-    if not t < k_[_UPPER]:
-        return
-    if active[c] >= 0 and active[c] == upper_of[c]:  # in the blend that took it: the upper body plays B
-        if not b_now:
-            _decode_verb(into[c], d_b, x1, z1, h1, verbs, rot_b, trans_b)
-        for i in range(upper.shape[0]):
-            j = upper[i]
-            for a in range(4):
-                rot[j, a] = rot_b[j, a]
-    u = t / k_[_UPPER]
+    arms_rot, arms_vel, arms_since, arms_of = state[21], state[22], state[23], state[24]
+    # B a frame ago, by its clock (player._back), and now.
+    _, rate_b = _rates(c, verbs, caches, state)
+    gb = _generic_of(_clock_of(g_into[c], into[c], 1, c, verbs, caches) - dt * rate_b, into[c], 1, c, verbs, caches)
+    _dofs(e_b, into[c], 1, c, gb, verbs, caches, blend)
+    _decode_verb(into[c], e_b, x0, z0, h0, verbs, rot0, trans0)
+    if not b_now:
+        _decode_verb(into[c], d_b, x1, z1, h1, verbs, rot_b, trans_b)
+    for i in range(arms.shape[0]):
+        j = arms[i]
+        _relative_into(shown_rot[c, j], rot0[j], arms_rot[c, j])
+        for a in range(3):
+            arms_vel[c, j, a] = 0.0
+        if has_before:
+            _relative_into(shown_rot[c, j], before_rot[c, j], r1)
+            _relative_into(rot_b[j], rot0[j], r2)
+            for a in range(3):
+                arms_vel[c, j, a] = (r1[a] - r2[a]) / dt
+    arms_since[c] = dt
+    arms_of[c] = active[c]
+    return True
+
+
+@njit(cache=True, inline="always")
+def _arms_show(t, length, arms_rot, arms_vel, arms, rot):  # pragma: no cover - compiled
+    """``player._arms``'s offset ``t`` seconds on (of ``length``), before the arms' rotations ``rot (J,
+    4)``: ``o(t) = w(t / T) x₀ + v₀ t (1 − t / T)³``."""
+    u = t / length
     w, tail = 0.5 * math.cos(np.pi * u) + 0.5, t * (1.0 - u) ** 3
-    for i in range(upper.shape[0]):
-        j = upper[i]
-        ex, ey, ez, ew = _exp(w * upper_rot[c, j, 0] + tail * upper_vel[c, j, 0], w * upper_rot[c, j, 1] + tail * upper_vel[c, j, 1],
-                              w * upper_rot[c, j, 2] + tail * upper_vel[c, j, 2])  # fmt: skip
+    for i in range(arms.shape[0]):
+        j = arms[i]
+        ex, ey, ez, ew = _exp(w * arms_rot[j, 0] + tail * arms_vel[j, 0], w * arms_rot[j, 1] + tail * arms_vel[j, 1],
+                              w * arms_rot[j, 2] + tail * arms_vel[j, 2])  # fmt: skip
         q = _mul(ex, ey, ez, ew, rot[j, 0], rot[j, 1], rot[j, 2], rot[j, 3])
         for a in range(4):
             rot[j, a] = q[a]

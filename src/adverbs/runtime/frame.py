@@ -118,12 +118,12 @@ def tables(graph: Graph) -> Tables:
         np.array([t.target for t in ts], dtype=np.int64),
         np.array([t.blend == "inertial" for t in ts], dtype=np.bool_),
         np.ascontiguousarray(graph.between_verbs, dtype=np.bool_),
-        np.ascontiguousarray(graph.carries_upper_body, dtype=np.bool_),
+        np.ascontiguousarray(graph.carries_arms, dtype=np.bool_),
     )
     skeleton = (
         np.asarray(graph.skeleton.parents, dtype=np.int64), np.ascontiguousarray(graph.feet_array, dtype=np.int64),
         np.ascontiguousarray(graph.inverse_above_body, dtype=float), int(vs[0].encoding.body_root),
-        np.ascontiguousarray(graph.upper_body, dtype=np.int64),
+        np.ascontiguousarray(graph.arms, dtype=np.int64),
     )  # fmt: skip
     out = Tables(verbs, transitions, max(v.num_dofs for v in vs), skeleton)
     _TABLES[graph] = out
@@ -136,7 +136,7 @@ def _constants() -> np.ndarray:
         graph_state._LATE, graph_state.MIN_DURATION, graph_state.INERTIAL_HALFLIFE, planting._LN2, planted.REPLANT,
         planted.REPLANTED, planting.SWING_HALFLIFE, planting.LIFT_HALFLIFE, player.LANDS,
         planted.LEFT_BEHIND, planted.STEP_RISE, planted.STEP_DELAY, planted.STEP_LAND, graph_state.MIN_LOOP,
-        planted.STANDING, planted.SHIFTED, planting.SWING_LIFT, graph_state.UPPER_BODY_BLEND,
+        planted.STANDING, planted.SHIFTED, planting.SWING_LIFT, graph_state.ARMS_BLEND,
     ])  # fmt: skip
 
 
@@ -345,8 +345,8 @@ class FramePass:
             state.verb, state.g, state.into, state.g_into, state.active, state.beta, state.length, state.regions,
             state.time, state.inertial, state.rebase, state.offset_rot, state.offset_rot_vel, state.offset_trans,
             state.offset_trans_vel, state.offset_root, state.offset_since, state.offset_halflife, state.moving,
-            state.root, state.held_before, state.upper_rot, state.upper_vel, state.upper_since, state.upper_of,
-            state.upper_take,
+            state.root, state.held_before, state.arms_rot, state.arms_vel, state.arms_since, state.arms_of,
+            state.arms_take,
         )  # fmt: skip
         key = (state.head, *arrays)
         if self._box_key is not None and all(map(operator.is_, key, self._box_key)):

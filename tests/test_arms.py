@@ -1,9 +1,9 @@
-"""The upper body carried past a short blend from one cycle into another (issue 32).
+"""The arms carried past a short blend from one cycle into another (issue 32).
 
 A walk's and a run's feet agree over a quarter of their cycles, so the graphs blend them over 0.2-0.3 s; the CMU
 run's forearms are bent 80° more than the walk's, and through those blends they turned at 2.5-3.9x their verbs' own
-fastest. Now the upper body plays the verb entered at once and carries the difference from the pose shown on,
-fading over ``UPPER_BODY_BLEND`` (``player._upper_body``). These tests drive one creature frame by frame through
+fastest. Now the arms play the verb entered at once and carry the difference from the pose shown on, fading over
+``ARMS_BLEND`` (``player._arms``). These tests drive one creature frame by frame through
 such blends, one of them turned back half-way and one cut short by a command that leaves the blend, on the readable
 path and the compiled pass, and measure the frames.
 """
@@ -21,7 +21,7 @@ from adverbs.errors import AdverbsWarning
 from adverbs.graph import queue
 from adverbs.graph.player import step
 from adverbs.graph.queue import command
-from adverbs.graph.state import UPPER_BODY_BLEND, new_state
+from adverbs.graph.state import ARMS_BLEND, new_state
 from adverbs.runtime.frame import FramePass
 
 from test_edges import _angular_speed, _parts
@@ -41,7 +41,7 @@ def _drive(graph, plan, seconds, compiled=False, points=None):
     """One creature from the walk, told what ``plan`` says: ``[(when, verb)]``, ``when`` a time in seconds or
     ``("mid", source, target)``: as soon as a blend from ``source`` into ``target`` is half-way. Returns the
     rotations shown ``(F, J, 4)``, each frame's transition and the verb it is entered from, whether each frame took the
-    upper body's offset (1) or ended it (−1), and the final state."""
+    arms' offset (1) or ended it (−1), and the final state."""
     state = new_state(graph, 1, seed=5, start="walk", points=points, stay=True)
     frames = FramePass(state) if compiled else None
     names = graph.verb_names
@@ -58,12 +58,12 @@ def _drive(graph, plan, seconds, compiled=False, points=None):
             if due:
                 command(state, 0, verb, stay=True)
                 todo.remove((when, verb))
-        since = state.upper_since[0]
+        since = state.arms_since[0]
         rot = frames.step(DT, plant=False)[0][0].copy() if frames is not None else step(state, DT).rotations[0].copy()
         out.append(rot)
         active.append(int(state.active[0]))
         source.append(int(state.verb[0]))
-        took.append(bool(state.upper_since[0] < since) - bool(np.isinf(state.upper_since[0]) and since < np.inf))
+        took.append(bool(state.arms_since[0] < since) - bool(np.isinf(state.arms_since[0]) and since < np.inf))
     assert not todo, f"the plan's commands {todo} were never due"
     return np.array(out), np.array(active), np.array(source), np.array(took), state
 
@@ -83,20 +83,20 @@ PLAN = [(0.8, "run"), (("mid", "walk", "run"), "walk"), (4.0, "run"), (7.0, "wal
 
 
 def _cosine(graph) -> np.ndarray:
-    """:data:`PLAN`'s rotations with the upper body blended by the cosine as the legs are (``UPPER_BODY_BLEND = 0``:
+    """:data:`PLAN`'s rotations with the arms blended by the cosine as the legs are (``ARMS_BLEND = 0``:
     no blend is that short)."""
-    old = queue.UPPER_BODY_BLEND
+    old = queue.ARMS_BLEND
     try:
-        queue.UPPER_BODY_BLEND = 0.0
+        queue.ARMS_BLEND = 0.0
         return _drive(graph, PLAN, 11.0)[0]
     finally:
-        queue.UPPER_BODY_BLEND = old
+        queue.ARMS_BLEND = old
 
 
 def test_walk_and_run_blends_carry_the_arms_on_within_their_verbs_speeds(graphs):
     """Through every blend between the CMU walk and run (one turned back half-way, which takes the offset again
-    from the pose shown), no arm joint turns faster than 1.5x the walk's and the run's own fastest; with the upper
-    body blended by the cosine as the legs are (``UPPER_BODY_BLEND = 0``) the same plan turns them at 2.5x and more."""
+    from the pose shown), no arm joint turns faster than 1.5x the walk's and the run's own fastest; with the arms
+    blended by the cosine as the legs are (``ARMS_BLEND = 0``) the same plan turns them at 2.5x and more."""
     graph = graphs["cmu"]
     arms = _parts(graph)["arms"]
     own = _own_arms(graph)
@@ -110,27 +110,31 @@ def test_walk_and_run_blends_carry_the_arms_on_within_their_verbs_speeds(graphs)
     assert _angular_speed(cosine)[:, arms].max() > 2.5 * own
 
 
-def test_the_offset_moves_only_the_upper_body_and_is_gone_after_its_time(graphs):
-    """The legs and hips are the cosine blend's exactly (the feet's timing is the blend's); the upper body differs
-    only until ``UPPER_BODY_BLEND`` after the last blend took its offset, then shows the verbs' own pose again."""
+def test_the_offset_moves_only_the_arms_and_is_gone_after_its_time(graphs):
+    """The legs, hips, trunk and head are the cosine blend's exactly (the feet's timing is the blend's); the arms
+    differ only until ``ARMS_BLEND`` after the last blend took their offset, then show the verbs' own pose again."""
     graph = graphs["cmu"]
-    up = graph.upper_body
-    assert {graph.skeleton.names[j] for j in up} == {
-        "thorax", "head", "lclavicle", "lhumerus", "lradius", "lhand", "rclavicle", "rhumerus", "rradius", "rhand",
-    }  # fmt: skip
+    up = graph.arms
+    assert [graph.skeleton.names[j] for j in up] == [
+        "lclavicle", "lhumerus", "lradius", "lhand", "rclavicle", "rhumerus", "rradius", "rhand",
+    ]  # fmt: skip
+    bandai = graphs["bandai"].skeleton.names
+    assert [bandai[j] for j in graphs["bandai"].arms] == [
+        "Shoulder_L", "UpperArm_L", "LowerArm_L", "Hand_L", "Shoulder_R", "UpperArm_R", "LowerArm_R", "Hand_R",
+    ]  # fmt: skip
     rest = np.setdiff1d(np.arange(graph.skeleton.num_joints), up)
     rot, _, _, took, _ = _drive(graph, PLAN, 11.0)
     cosine = _cosine(graph)
     np.testing.assert_array_equal(rot[:, rest], cosine[:, rest])
     last = int(np.flatnonzero(took == 1)[-1])
-    over = last + int(np.ceil(UPPER_BODY_BLEND / DT))  # the frame it was taken at is DT into it
+    over = last + int(np.ceil(ARMS_BLEND / DT))  # the frame it was taken at is DT into it
     assert np.abs(rot[last + 1 : over - 1, up] - cosine[last + 1 : over - 1, up]).max() > 0.05
     np.testing.assert_allclose(rot[over:, up], cosine[over:, up], rtol=0, atol=1e-12)
 
 
-def test_a_blend_cut_short_hands_the_upper_body_to_the_whole_pose_offset(graphs):
+def test_a_blend_cut_short_hands_the_arms_to_the_whole_pose_offset(graphs):
     """Bandai's walk → run cut short half-way by a command to stand (the run plays on alone from the pose shown, whose offset
-    then carries the upper body's too): its offset ends there, and no arm joint turns faster than 1.5x its verbs'
+    then carries the arms' too): its offset ends there, and no arm joint turns faster than 1.5x its verbs'
     own on the readable path or the compiled pass, which agree."""
     graph = graphs["bandai"]
     plan = [(0.6, "run"), (("mid", "walk", "run"), "idle")]
@@ -147,10 +151,10 @@ def test_a_blend_cut_short_hands_the_upper_body_to_the_whole_pose_offset(graphs)
     assert _angular_speed(rot)[:, arms].max() <= 1.5 * own
 
 
-def test_the_compiled_pass_carries_the_upper_body_as_the_reference_does(graphs):
+def test_the_compiled_pass_carries_the_arms_as_the_reference_does(graphs):
     """The CMU plan (taken four times and turned back once) on the compiled pass: the same rotations, to 1e-9."""
     graph = graphs["cmu"]
     ref, *_, ref_state = _drive(graph, PLAN, 11.0)
     fast, *_, fast_state = _drive(graph, PLAN, 11.0, compiled=True)
     np.testing.assert_allclose(fast, ref, rtol=0, atol=1e-9)
-    np.testing.assert_allclose(fast_state.upper_rot, ref_state.upper_rot, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(fast_state.arms_rot, ref_state.arms_rot, rtol=0, atol=1e-9)
