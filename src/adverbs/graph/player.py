@@ -27,6 +27,10 @@ and a generic time ``g`` in it — or is in a transition from one instance (A) t
   offset, half-life at least ``INTERRUPT_HALFLIFE``) and the new path starts from B — at once, and
   inertially, when B is a one-shot verb whose way on is already open. A stop (a cycle blending into a
   one-shot) is not cut short: the new path starts from B once the stop has put its feet down.
+* **Arms past a short blend.** A cosine blend from one cycle into another (a walk into a run, over the quarter
+  cycle their feet agree on) shorter than ``ARMS_BLEND`` plays the arms (``Graph.arms``) of B at once, the pose
+  shown's difference from them fading to nothing ``ARMS_BLEND`` on (:func:`_arms`): the legs keep the blend's
+  timing, and a forearm bent 80° more in the run no longer turns at 3.3x its verbs' own.
 * **Feet.** In a cosine blend a foot is held where both verbs hold it, where A does and still has the weight,
   or where B does and A has begun to land it (:func:`hold_phases`). Blending two stances would slide a held
   foot, so the body is carried by the held feet's slip instead (:func:`_keep_feet`). :class:`GraphFeet` re-places a foot a
