@@ -158,3 +158,26 @@ def test_the_compiled_pass_carries_the_arms_as_the_reference_does(graphs):
     fast, *_, fast_state = _drive(graph, PLAN, 11.0, compiled=True)
     np.testing.assert_allclose(fast, ref, rtol=0, atol=1e-9)
     np.testing.assert_allclose(fast_state.arms_rot, ref_state.arms_rot, rtol=0, atol=1e-9)
+
+
+def test_a_stop_carries_the_arms_over_its_blend_and_no_further(graphs):
+    """A stop (the walk into the stand) carries the arms over its own blend: its arms turn no faster than with the
+    cosine (which swung them on with the walk's weight while drawing them to the stand's: 1.63x the walk's own in
+    the fixed script's stop, ``test_transitions``), and from the blend's end the pose is the stand's own again."""
+    graph = graphs["bandai"]
+    arms = _parts(graph)["arms"]
+    plan = [(1.2, "idle")]
+    rot, active, _, took, _ = _drive(graph, plan, 4.0)
+    cosine = load_graph(GRAPHS / "bandai.toml")
+    carries = cosine.carries_arms.copy()
+    assert (carries == 2).sum() == 1  # the stop (walk → idle), the graph's one cosine blend from a cycle into a one-shot
+    carries[carries == 2] = 0
+    cosine.__dict__["carries_arms"] = carries
+    plain, active_plain, *_ = _drive(cosine, plan, 4.0)
+    np.testing.assert_array_equal(active, active_plain)
+    stop = np.flatnonzero(active == int(np.flatnonzero(graph.carries_arms == 2)[0]))
+    assert took[stop[0]] == 1 and stop[-1] - stop[0] > 10
+    inside = slice(stop[0], stop[-1] + 1)
+    assert np.abs(rot[inside] - plain[inside]).max() > 0.05
+    np.testing.assert_allclose(rot[stop[-1] + 1 :], plain[stop[-1] + 1 :], rtol=0, atol=1e-12)
+    assert _angular_speed(rot[stop[0] - 1 : stop[-1] + 2])[:, arms].max() < _angular_speed(plain[stop[0] - 1 : stop[-1] + 2])[:, arms].max()

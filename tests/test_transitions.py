@@ -178,9 +178,9 @@ NOT_YET = {
     ("bandai", "idle", "reach", "legs"): 3.95,  # ... stand's legs turn at 10-60
     ("bandai", "idle", "bow", "trunk"): 2.4,  # a bow cutting a stand's loop short turns the head fast (3.1x until session 45)
     # (a stand's loop into itself turned the trunk at 1.9x until it blended into 0.7 of the stand, session 45)
-    ("bandai", "walk", "idle", "acc"): 1.85, ("bandai", "walk", "idle", "arms"): 1.65,
-    # (the walk ↔ run arms, a CMU forearm bending 80° in 0.19 s at 3.4x, 2.5x and Bandai's at 1.6x, until session 46
-    # carried the arms on past those blends: tests/test_arms.py)
+    ("bandai", "walk", "idle", "acc"): 1.85,
+    # (the walk ↔ run arms, a CMU forearm bending 80° in 0.19 s at 3.4x, 2.5x and Bandai's at 1.6x, and a stop's at
+    # 1.65x, until session 46 carried the arms on past those blends: tests/test_arms.py)
     ("cmu", "walk", "run", "acc"): 1.6,
 }  # fmt: skip
 

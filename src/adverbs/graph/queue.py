@@ -79,7 +79,7 @@ def _reverse(state: GraphState, c: int) -> None:
     state.verb[c], state.into[c] = state.into[c], state.verb[c]
     state.g[c], state.g_into[c] = state.g_into[c], state.g[c]
     state.beta[c] = back
-    if state.arms_of[c] == state.active[c] and state.arms_since[c] < ARMS_BLEND:
+    if state.arms_of[c] == state.active[c] and state.arms_since[c] < state.arms_length[c]:
         state.arms_take[c] = True  # the arms carried on from the pose shown, onto the verb now entered
 
 
@@ -145,8 +145,10 @@ def _start(state: GraphState, c: int, late: float, inertial: bool = False) -> No
     if state.inertial[c]:  # B at once, the pose shown decaying onto it
         state.rebase[c] = True
         state.offset_halflife[c] = max(INERTIAL_HALFLIFE * state.length[c], INTERRUPT_HALFLIFE if inertial else 0.0)
-    elif graph.carries_arms[k] and state.length[c] < ARMS_BLEND:
-        state.arms_take[c] = True  # the arms: B at once, the pose shown's difference carried on
+    elif graph.carries_arms[k] == 1 and state.length[c] < ARMS_BLEND:  # the arms: B at once, the pose shown's
+        state.arms_take[c], state.arms_length[c] = True, ARMS_BLEND  # difference carried on (player._arms)
+    elif graph.carries_arms[k] == 2:  # a stop: the same, over the blend
+        state.arms_take[c], state.arms_length[c] = True, state.length[c]
 
 
 def _finish(state: GraphState, c: int) -> None:

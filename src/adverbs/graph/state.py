@@ -24,7 +24,7 @@ INTERRUPT_HALFLIFE = 0.2  # seconds: the shortest half-life of the offset an int
 # A walk's and a run's feet agree over a quarter of their cycles, so their blends last 0.2-0.3 s; the arms, bent 80°
 # more in a run, turned at 2.5-3.9x their verbs' own fastest through them. Past a blend from one cycle into another
 # that is shorter than this, the arms (Graph.arms) play the verb entered at once and carry the pose shown's
-# difference from it on, fading over this long (player._arms).
+# difference from it on, fading over this long (player._arms). A stop carries them over its own blend.
 ARMS_BLEND = 1.6  # seconds
 MIN_DURATION = 0.1  # seconds: no transition is shorter (but a verb's loop into itself, :data:`MIN_LOOP`)
 # A verb's loop into itself blends two instances of one verb at one phase, so a short blend pops nothing; stretched to
@@ -44,8 +44,9 @@ class GraphState:
     started); ``root (C, 3)`` = (x, z, heading); ``queue`` the transitions to come; ``goal`` the verb last
     asked for until it plays (−1: none) and when it was asked; the decaying offsets of inertial blends
     and interruptions; the arms' offset a blend from one cycle into another carries on (``arms_rot``,
-    ``arms_vel (C, J, 3)``, taken ``arms_since`` seconds ago for transition ``arms_of``; ``arms_take``: take it
-    at the next frame); the last two frames shown (for the velocities an interruption carries on).
+    ``arms_vel (C, J, 3)``, taken ``arms_since`` seconds ago for transition ``arms_of``, to fade over
+    ``arms_length`` seconds; ``arms_take``: take it at the next frame); the last two frames shown (for the velocities
+    an interruption carries on).
     """
 
     graph: Graph
@@ -77,6 +78,7 @@ class GraphState:
     arms_since: np.ndarray | None = None
     arms_of: np.ndarray | None = None
     arms_take: np.ndarray | None = None
+    arms_length: np.ndarray | None = None
     shown: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
     shown_before: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
     inertial: np.ndarray | None = None
@@ -139,7 +141,7 @@ def new_state(
     state.inertial = np.zeros(c, dtype=bool)
     state.arms_rot, state.arms_vel = np.zeros((c, j, 3)), np.zeros((c, j, 3))
     state.arms_since, state.arms_of = np.full(c, np.inf), np.full(c, -1, dtype=np.int64)
-    state.arms_take = np.zeros(c, dtype=bool)
+    state.arms_take, state.arms_length = np.zeros(c, dtype=bool), np.full(c, ARMS_BLEND)
     state.stay = np.array(np.broadcast_to(np.asarray(stay, dtype=bool), (c,)))
     state.head = np.full(c, -1, dtype=np.int64)
     for k in range(c):

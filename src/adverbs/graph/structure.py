@@ -212,13 +212,15 @@ class Graph:
 
     @cached_property
     def carries_arms(self) -> np.ndarray:
-        """Whether each transition ``(T,)`` is a cosine blend from one cycle into another (a walk into a run), whose
-        arms are carried on past a short blend (:data:`adverbs.graph.state.ARMS_BLEND`)."""
+        """How each transition ``(T,)`` carries the arms on (``player._arms``): 1, a cosine blend from one cycle into
+        another (a walk into a run), past the blend when it is short (:data:`adverbs.graph.state.ARMS_BLEND`); 2, a
+        cosine blend from a cycle into a one-shot (a stop), over the blend; 0, not (the arms blend as the rest)."""
         cyclic = self.cyclic
         return np.array(
-            [t.source != t.target and t.blend == "cosine" and cyclic[t.source] and cyclic[t.target] for t in self.transitions],
-            dtype=bool,
-        )
+            [0 if t.source == t.target or t.blend != "cosine" or not cyclic[t.source] else 1 if cyclic[t.target] else 2
+             for t in self.transitions],
+            dtype=np.int64,
+        )  # fmt: skip
 
     @cached_property
     def arms(self) -> np.ndarray:

@@ -30,7 +30,7 @@ Arguments come in tuples (``frame.FramePass`` lays them out once):
   offsets) and their root accelerations through their cycle (``Verb.root_acceleration_profile`` ``(E, S, 3)``: flat,
   offsets).
 * ``transitions``: ``regions (T, 4)`` (source start and end, target start and end), ``target (T,)``,
-  ``inertial (T,)``, ``between (T,)`` (from one verb to another), ``arms (T,)`` (carries the arms on:
+  ``inertial (T,)``, ``between (T,)`` (from one verb to another), ``arms (T,)`` (how it carries the arms on:
   ``Graph.carries_arms``).
 * ``skeleton``: ``parents (J,)``, the graph's feet ``(L,)``, the inverse rest rotation above the body root ``(4,)``,
   the body root, the arms' joints ``(U,)`` (``Graph.arms``).
@@ -194,8 +194,10 @@ def _start(c, late, k, verbs, transitions, caches, state, k_):  # pragma: no cov
     if inertial[c]:  # B at once, the pose shown decaying onto it
         rebase[c] = True
         halflife[c] = max(k_[_INERTIAL] * length[c], 0.0)
-    elif transitions[4][k] and length[c] < k_[_ARMS]:
-        state[25][c] = True  # the arms: B at once, the pose shown's difference carried on (queue._start)
+    elif transitions[4][k] == 1 and length[c] < k_[_ARMS]:  # the arms: B at once, the pose shown's difference
+        state[25][c], state[26][c] = True, k_[_ARMS]  # carried on (queue._start)
+    elif transitions[4][k] == 2:  # a stop: the same, over the blend
+        state[25][c], state[26][c] = True, length[c]
 
 
 @njit(cache=True)
@@ -492,14 +494,14 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
         if has_shown and arms.shape[0] > 0 and active[c] >= 0:
             b_now = _arms_take(c, dt, b_now, has_before, x0, z0, h0, x1, z1, h1, verbs, caches, state, arms, shown_rot,
                                 before_rot, d_b, e_b, rot_b, trans_b, rot0, trans0, r1, r2, blend)  # fmt: skip
-    if arms_since[c] < k_[_ARMS]:
+    if arms_since[c] < state[26][c]:
         if active[c] >= 0 and active[c] == state[24][c]:  # in the blend that took it: the arms play B
             if not b_now:
                 _decode_verb(into[c], d_b, x1, z1, h1, verbs, rot_b, trans_b)
             for i in range(arms.shape[0]):
                 for a in range(4):
                     rot[c, arms[i], a] = rot_b[arms[i], a]
-        _arms_show(arms_since[c], k_[_ARMS], state[21][c], state[22][c], arms, rot[c])
+        _arms_show(arms_since[c], state[26][c], state[21][c], state[22][c], arms, rot[c])
     # Hold phases: A's, B's, or in a cosine blend A's while it has the weight, then both's (player.hold_phases).
     is_moving = active[c] >= 0
     inert = is_moving and inertial[c]

@@ -118,7 +118,7 @@ def tables(graph: Graph) -> Tables:
         np.array([t.target for t in ts], dtype=np.int64),
         np.array([t.blend == "inertial" for t in ts], dtype=np.bool_),
         np.ascontiguousarray(graph.between_verbs, dtype=np.bool_),
-        np.ascontiguousarray(graph.carries_arms, dtype=np.bool_),
+        np.ascontiguousarray(graph.carries_arms, dtype=np.int64),
     )
     skeleton = (
         np.asarray(graph.skeleton.parents, dtype=np.int64), np.ascontiguousarray(graph.feet_array, dtype=np.int64),
@@ -346,7 +346,7 @@ class FramePass:
             state.time, state.inertial, state.rebase, state.offset_rot, state.offset_rot_vel, state.offset_trans,
             state.offset_trans_vel, state.offset_root, state.offset_since, state.offset_halflife, state.moving,
             state.root, state.held_before, state.arms_rot, state.arms_vel, state.arms_since, state.arms_of,
-            state.arms_take,
+            state.arms_take, state.arms_length,
         )  # fmt: skip
         key = (state.head, *arrays)
         if self._box_key is not None and all(map(operator.is_, key, self._box_key)):
