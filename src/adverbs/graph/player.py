@@ -321,13 +321,13 @@ def _step(state: GraphState, dt: float) -> Frame:
 
 def _arms(state: GraphState, rot: np.ndarray, rot_b: np.ndarray | None, rebased: np.ndarray, dt: float) -> None:
     """The arms carried past a short blend from one cycle into another (over ``ARMS_BLEND``) and through a stop
-    (over its blend), onto the rotations ``rot (C, J, 4)`` in place; ``rot_b``: B's own (None without B); ``rebased``: the creatures whose whole pose took
-    an offset this frame (it carries the arms' on: theirs ends).
+    (over its blend), onto the rotations ``rot (C, J, 4)`` in place; ``rot_b``: B's own (None without B);
+    ``rebased``: the creatures whose whole pose took an offset this frame (it carries the arms' on: theirs ends).
 
     Where the blend starts (and where it is turned back), the difference between the pose shown a frame ago and B's
     then is taken (``x₀``, rotation vectors of the arms' joints) with the difference of their velocities since
-    (``v₀``), as an interruption's offset is. Through that blend the arms play B and, until
-    ``T`` after (``arms_length``), shows ``exp(o(t))`` before the verbs' rotations, ``o(t) = w(t / T) x₀ + v₀ t
+    (``v₀``), as an interruption's offset is. Through that blend the arms play B, and until ``T`` after it was taken
+    (``arms_length``) they show ``exp(o(t))`` before the verbs' rotations, ``o(t) = w(t / T) x₀ + v₀ t
     (1 − t / T)³`` with ``w(u) = ½ cos(π u) + ½``: the pose shown and its velocity at the start, none of it (and no
     velocity) at ``T``. A walk → run's forearm bending 80° in a 0.19 s blend turned at 3.3x its verbs' own; now
     0.8-1.0x. Through a stop the arms no longer swing on with the walk's weight while drawn to the stand's: a stop's
