@@ -33,6 +33,7 @@ def test_describe_names_the_verbs_the_added_loops_and_what_is_reached():
     assert set(lines) == {"walk → run", "run → walk", "walk → walk", "run → run"}
     assert "added" in lines["walk → walk"] and "added" in lines["run → run"]
     assert "added" not in lines["walk → run"] and "from_region [0.48, 0.73]" in lines["run → walk"]
+    assert "arms carried past the blend" in lines["walk → run"] and "arms" not in lines["walk → walk"]
     assert "every verb can be reached from the start verb walk" in out
     assert "loading graph" in r.stderr and "built verb 'cmu-walk'" in r.stderr  # progress, not in stdout
 

@@ -488,6 +488,7 @@ def _print_graph(d: dict) -> None:
             f"    {arrow:<{width}}  from_region [{a0:.2f}, {a1:.2f}], to_region [{b0:.2f}, {b1:.2f}], "
             f"likelihood {t['likelihood']:g} (chance {t['likelihood'] / out_of[t['from']]:.0%}), {t['blend']}"
             f"{', interruptible' if t['interruptible'] else ', not interruptible'}"
+            f"{', arms ' + t['arms'] if t.get('arms') else ''}"
             f"{', added: the cycle loops into itself' if t['added'] else ''}"
         )
     print("  reachability:")

@@ -428,9 +428,10 @@ class Graph:
                     "likelihood": t.likelihood,
                     "blend": t.blend,
                     "interruptible": t.interruptible,
+                    "arms": ("", "carried past the blend when it is short", "carried over the blend")[int(carry)],
                     "added": t.added,
                 }
-                for t in self.transitions
+                for t, carry in zip(self.transitions, self.carries_arms)
             ],
         }
 
