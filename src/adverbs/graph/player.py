@@ -344,13 +344,10 @@ def _arms(state: GraphState, rot: np.ndarray, rot_b: np.ndarray | None, rebased:
         was, _ = _decoded(state, _dofs(state, state.into, g_b, 1, take), state.root)
         shown = state.shown[0][take][:, up]
         then = was[take][:, up]
-        state.arms_rot[take] = 0.0
+        state.arms_rot[take] = _relative(shown, then)
         state.arms_vel[take] = 0.0
-        state.arms_rot[take[:, None], up] = _relative(shown, then)
         if state.shown_before is not None:
-            state.arms_vel[take[:, None], up] = (
-                _relative(shown, state.shown_before[0][take][:, up]) - _relative(rot_b[take][:, up], then)
-            ) / dt
+            state.arms_vel[take] = (_relative(shown, state.shown_before[0][take][:, up]) - _relative(rot_b[take][:, up], then)) / dt
         state.arms_since[take] = dt
         state.arms_of[take] = state.active[take]
     live = np.flatnonzero(state.arms_since < state.arms_length)
@@ -361,7 +358,7 @@ def _arms(state: GraphState, rot: np.ndarray, rot_b: np.ndarray | None, rebased:
         rot[own[:, None], up] = rot_b[own[:, None], up]
     t = state.arms_since[live, None, None]
     u = t / state.arms_length[live, None, None]
-    o = (0.5 * np.cos(np.pi * u) + 0.5) * state.arms_rot[live][:, up] + state.arms_vel[live][:, up] * t * (1.0 - u) ** 3
+    o = (0.5 * np.cos(np.pi * u) + 0.5) * state.arms_rot[live] + state.arms_vel[live] * t * (1.0 - u) ** 3
     rot[live[:, None], up] = quat.mul(quat.exp(o), rot[live[:, None], up])
 
 

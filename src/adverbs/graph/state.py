@@ -44,7 +44,7 @@ class GraphState:
     started); ``root (C, 3)`` = (x, z, heading); ``queue`` the transitions to come; ``goal`` the verb last
     asked for until it plays (−1: none) and when it was asked; the decaying offsets of inertial blends
     and interruptions; the arms' offset a blend from one cycle into another carries on (``arms_rot``,
-    ``arms_vel (C, J, 3)``, taken ``arms_since`` seconds ago for transition ``arms_of``, to fade over
+    ``arms_vel (C, U, 3)`` over ``Graph.arms``, taken ``arms_since`` seconds ago for transition ``arms_of``, to fade over
     ``arms_length`` seconds; ``arms_take``: take it at the next frame); the last two frames shown (for the velocities
     an interruption carries on).
     """
@@ -139,7 +139,7 @@ def new_state(
         np.zeros((c, 3)), np.full(c, 1e9), np.full(c, INTERRUPT_HALFLIFE),
     )  # fmt: skip
     state.inertial = np.zeros(c, dtype=bool)
-    state.arms_rot, state.arms_vel = np.zeros((c, j, 3)), np.zeros((c, j, 3))
+    state.arms_rot, state.arms_vel = np.zeros((c, len(graph.arms), 3)), np.zeros((c, len(graph.arms), 3))
     state.arms_since, state.arms_of = np.full(c, np.inf), np.full(c, -1, dtype=np.int64)
     state.arms_take, state.arms_length = np.zeros(c, dtype=bool), np.full(c, ARMS_BLEND)
     state.stay = np.array(np.broadcast_to(np.asarray(stay, dtype=bool), (c,)))

@@ -413,7 +413,7 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
     parents, feet, above_inv, body, arms = skeleton
     d_a, d_b, e_a, e_b, vel, vel0, r1, r2, blend = scratch[:9]
     rot_b, trans_b, rot0, trans0, hb, rb, sb, wts = scratch[9:17]
-    fk_now_pos, fk_now_rot, fk_was_pos, fk_was_rot, xb = scratch[17:]
+    fk_now_pos, fk_now_rot, fk_was_pos, fk_was_rot, xb, rot_b0, trans_b0 = scratch[17:]
     if first:  # the first step without a first frame: the velocities where the creature starts
         _base(c, g[c], g_into[c], verbs, caches, state, d_a, d_b, vel, blend)
         for a in range(3):
@@ -459,7 +459,7 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
     _decode(c, x1, z1, h1, alpha, verbs, state, d_a, d_b, rot[c], trans[c], rot_b, trans_b)
     if reb:
         # The pose a frame ago, at the root then; the offset is what was shown less it.
-        _decode(c, x0, z0, h0, alpha0, verbs, state, e_a, e_b, rot0, trans0, rot_b, trans_b)
+        _decode(c, x0, z0, h0, alpha0, verbs, state, e_a, e_b, rot0, trans0, rot_b0, trans_b0)
         n_j = rot0.shape[0]
         for j in range(n_j):
             _relative_into(shown_rot[c, j], rot0[j], offset_rot[c, j])
@@ -482,22 +482,18 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
         decay_row(offset_since[c], offset_halflife[c], offset_rot[c], offset_rot_vel[c], offset_trans[c],
                   offset_trans_vel[c], rot[c], trans[c], k_[_LN2])  # fmt: skip
     # The arms carried past a short blend from one cycle into another (player._arms): their offset taken
-    # where asked, ended where the whole pose took one, and shown while it lasts; rot_b holds B's rotations now
-    # unless the offset above decoded B a frame ago into it.
+    # where asked, ended where the whole pose took one, and shown while it lasts (rot_b: B's rotations now).
     arms_since, arms_take = state[23], state[25]
     arms_since[c] += dt
     if reb:
         arms_since[c] = np.inf
-    b_now = not reb
     if arms_take[c]:
         arms_take[c] = False
         if has_shown and arms.shape[0] > 0 and active[c] >= 0:
-            b_now = _arms_take(c, dt, b_now, has_before, x0, z0, h0, x1, z1, h1, verbs, caches, state, arms, shown_rot,
-                                before_rot, d_b, e_b, rot_b, trans_b, rot0, trans0, r1, r2, blend)  # fmt: skip
+            _arms_take(c, dt, has_before, x0, z0, h0, verbs, caches, state, arms, shown_rot, before_rot, e_b, rot_b,
+                       rot0, trans0, r1, r2, blend)  # fmt: skip
     if arms_since[c] < state[26][c]:
         if active[c] >= 0 and active[c] == state[24][c]:  # in the blend that took it: the arms play B
-            if not b_now:
-                _decode_verb(into[c], d_b, x1, z1, h1, verbs, rot_b, trans_b)
             for i in range(arms.shape[0]):
                 for a in range(4):
                     rot[c, arms[i], a] = rot_b[arms[i], a]
@@ -564,45 +560,41 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
 
 
 @njit(cache=True)
-def _arms_take(c, dt, b_now, has_before, x0, z0, h0, x1, z1, h1, verbs, caches, state, arms, shown_rot, before_rot,
-                d_b, e_b, rot_b, trans_b, rot0, trans0, r1, r2, blend):  # pragma: no cover  # fmt: skip
-    """``player._arms``'s taking of creature ``c``'s arms' offset (a frame now and then: not inlined), from
-    the pose shown and B a frame ago; returns whether ``rot_b`` now holds B's rotations now (decoded here unless
-    ``b_now`` says it did)."""
+def _arms_take(c, dt, has_before, x0, z0, h0, verbs, caches, state, arms, shown_rot, before_rot, e_b, rot_b, rot0,
+               trans0, r1, r2, blend):  # pragma: no cover  # fmt: skip
+    """``player._arms``'s taking of creature ``c``'s arms' offset (a frame now and then: not inlined), from the pose
+    shown and B a frame ago (decoded into ``rot0``) and now (``rot_b``)."""
     into, g_into, active = state[2], state[3], state[4]
     arms_rot, arms_vel, arms_since, arms_of = state[21], state[22], state[23], state[24]
-    # B a frame ago, by its clock (player._back), and now.
+    # B a frame ago, by its clock (player._back).
     _, rate_b = _rates(c, verbs, caches, state)
     gb = _generic_of(_clock_of(g_into[c], into[c], 1, c, verbs, caches) - dt * rate_b, into[c], 1, c, verbs, caches)
     _dofs(e_b, into[c], 1, c, gb, verbs, caches, blend)
     _decode_verb(into[c], e_b, x0, z0, h0, verbs, rot0, trans0)
-    if not b_now:
-        _decode_verb(into[c], d_b, x1, z1, h1, verbs, rot_b, trans_b)
     for i in range(arms.shape[0]):
         j = arms[i]
-        _relative_into(shown_rot[c, j], rot0[j], arms_rot[c, j])
+        _relative_into(shown_rot[c, j], rot0[j], arms_rot[c, i])
         for a in range(3):
-            arms_vel[c, j, a] = 0.0
+            arms_vel[c, i, a] = 0.0
         if has_before:
             _relative_into(shown_rot[c, j], before_rot[c, j], r1)
             _relative_into(rot_b[j], rot0[j], r2)
             for a in range(3):
-                arms_vel[c, j, a] = (r1[a] - r2[a]) / dt
+                arms_vel[c, i, a] = (r1[a] - r2[a]) / dt
     arms_since[c] = dt
     arms_of[c] = active[c]
-    return True
 
 
 @njit(cache=True, inline="always")
 def _arms_show(t, length, arms_rot, arms_vel, arms, rot):  # pragma: no cover - compiled
-    """``player._arms``'s offset ``t`` seconds on (of ``length``), before the arms' rotations ``rot (J,
-    4)``: ``o(t) = w(t / T) x₀ + v₀ t (1 − t / T)³``."""
+    """``player._arms``'s offset ``t`` seconds on (of ``length``; ``arms_rot``, ``arms_vel (U, 3)``), before the
+    arms' rotations in ``rot (J, 4)``: ``o(t) = w(t / T) x₀ + v₀ t (1 − t / T)³``."""
     u = t / length
     w, tail = 0.5 * math.cos(np.pi * u) + 0.5, t * (1.0 - u) ** 3
     for i in range(arms.shape[0]):
         j = arms[i]
-        ex, ey, ez, ew = _exp(w * arms_rot[j, 0] + tail * arms_vel[j, 0], w * arms_rot[j, 1] + tail * arms_vel[j, 1],
-                              w * arms_rot[j, 2] + tail * arms_vel[j, 2])  # fmt: skip
+        ex, ey, ez, ew = _exp(w * arms_rot[i, 0] + tail * arms_vel[i, 0], w * arms_rot[i, 1] + tail * arms_vel[i, 1],
+                              w * arms_rot[i, 2] + tail * arms_vel[i, 2])  # fmt: skip
         q = _mul(ex, ey, ez, ew, rot[j, 0], rot[j, 1], rot[j, 2], rot[j, 3])
         for a in range(4):
             rot[j, a] = q[a]
@@ -633,16 +625,18 @@ def _scratch(buf, n_d, n_j, n_l):  # pragma: no cover - compiled
     was_pos, at = carve(buf, at, (1, n_j, 3))
     was_rot, at = carve(buf, at, (1, n_j, 4))
     xb, at = carve(buf, at, (n_l,))
+    rot_b0, at = carve(buf, at, (n_j, 4))
+    trans_b0, at = carve(buf, at, (n_j, 3))
     return (
         d_a, d_b, e_a, e_b, vel, vel0, r1, r2, blend, rot_b, trans_b, rot0, trans0, np.empty(n_l, dtype=np.bool_), rb, sb,
-        wts, now_pos, now_rot, was_pos, was_rot, xb,
+        wts, now_pos, now_rot, was_pos, was_rot, xb, rot_b0, trans_b0,
     )  # fmt: skip
 
 
 @njit(cache=True, inline="always")
 def _scratch_size(n_d, n_j, n_l):  # pragma: no cover - compiled
     """How many floats :func:`_scratch` carves."""
-    return 4 * n_d + 4 * 3 + 4 + 28 * n_j + 4 * n_l
+    return 4 * n_d + 4 * 3 + 4 + 35 * n_j + 4 * n_l
 
 
 @njit(cache=True)
