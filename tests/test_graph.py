@@ -551,6 +551,23 @@ def test_the_compiled_hold_phases_are_hold_modes():
             assert np.all(swing[rows][:, cols] == 0.0)
 
 
+def test_a_stand_s_blended_holds_never_roll_their_feet():
+    """A stand holds both feet to its end ([0, 1, 1]: heel-off at toe-off). Blended at a creature's adverbs its heel-off
+    came out 1 - 1e-16, and at the stand's end the feet were rolled 4e-8: enough for the planter to take a foot landing
+    there for one lifting off and leave it unheld, 5 mm over the floor. Both lookups now give such a hold no roll."""
+    times = np.array([[[0.0, 1.0 - 1e-16, 1.0], [0.0, 1.0, 1.0]]])
+    opens = np.zeros(2)
+    for g in (0.0, 0.5, 1.0 - 1e-12, 1.0):
+        inside, turn = hold_modes(False, np.array([[g]]), opens, times)
+        assert inside.all() and np.all(turn == 0.0), (g, turn)
+        held, roll, swing = np.zeros((1, 2), dtype=bool), np.full((1, 2), -1.0), np.full((1, 2), -1.0)
+        hold_rows(np.array([g]), np.array([0]), opens, times, np.array([0, 1]), False, held, roll, swing)
+        assert held.all() and np.all(roll == 0.0), (g, roll)
+    # A cycle's hold whose heel lifts at toe-off is flat while held and let go at toe-off.
+    inside, turn = hold_modes(True, np.array([[0.3], [0.7]]), np.zeros(1), np.array([[[0.0, 0.6, 0.6]]] * 2))
+    assert inside[:, 0].tolist() == [True, False] and turn[:, 0].tolist() == [0.0, 1.0]
+
+
 def test_root_velocities_undo_the_root_step():
     """The graph's root velocities (compiled) of a step taken by advance_root are the velocities it was taken at."""
     rng = np.random.default_rng(9)

@@ -53,7 +53,7 @@ from ..interp import timewarp
 from ..kinematics import ik, quat
 from ..kinematics.fk import forward_kinematics
 from ..kinematics.floor import FlatFloor, Floor, HeightMapFloor, SlopeFloor, tilt
-from ._planting_scalars import SWING_LANDING
+from ._planting_scalars import FLAT_TO_THE_END, SWING_LANDING
 from ..verb.tables import Verb
 
 LIFT_HALFLIFE = 0.015  # seconds: the vertical part of a released foot's offset halves this fast
@@ -615,7 +615,8 @@ def _kernel():
 def hold_modes(cyclic: bool, g: np.ndarray, opens: np.ndarray, times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Whether each hold is open at generic times ``g (..., 1)``, given its ``opens (L,)`` and ``times (..., L, 3)``
     (foot flat, heel-off, toe-off): ``(..., L)`` bool, and how far each foot has turned back to the verb's
-    orientation (0 until heel-off, 1 at toe-off; smoothstep)."""
+    orientation (0 until heel-off, 1 at toe-off; smoothstep; a hold whose heel-off is its toe-off, a stand's, does not
+    roll: 0 while open, 1 after)."""
     heel, close = times[..., 1] - opens, times[..., 2] - opens
     if cyclic:
         into = (g - opens) % 1.0
@@ -623,7 +624,8 @@ def hold_modes(cyclic: bool, g: np.ndarray, opens: np.ndarray, times: np.ndarray
     else:
         into = g - opens
         inside = (into >= 0.0) & ((into < close) | (opens + close >= 1.0 - 1e-9))
-    return inside, _smoothstep((into - heel) / np.maximum(close - heel, 1e-12))
+    rolls = close - heel > FLAT_TO_THE_END  # else a foot that does not roll off: flat while held
+    return inside, np.where(rolls, _smoothstep((into - heel) / np.where(rolls, close - heel, 1.0)), np.where(inside, 0.0, 1.0))
 
 
 def swing_lifts(cyclic: bool, g: np.ndarray, opens: np.ndarray, times: np.ndarray) -> np.ndarray:
