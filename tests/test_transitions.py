@@ -174,14 +174,17 @@ NOT_YET = {
     # Toe windows the scripts met once their verbs stayed where the cues put them (session 44; they had wandered by
     # likelihood between cues): a run's and a walk's loops into themselves, and the CMU walk → run.
     ("bandai", "run", "run", "toe"): 0.025, ("cmu", "walk", "walk", "toe"): 0.035, ("cmu", "walk", "run", "toe"): 0.035,
-    ("bandai", "idle", "idle", "legs"): 19.1,  # a foot re-placed in a stand: a step at 200-320 deg/s, where the
-    ("bandai", "idle", "reach", "legs"): 1.7,  # ... stand's legs turn at 10-60; 3.95 until the stepped foot was held again
+    # A foot re-placed in a stand: a step at 200-320 deg/s, where the stand's legs turn at 10-60 (19.1x until session
+    # 47, when a stop's trailing foot began waiting for the other to land before it stepped, landing in the stand)
+    ("bandai", "idle", "idle", "legs"): 20.4,
+    ("bandai", "idle", "reach", "legs"): 1.7,  # 3.95 until a foot stepped after a stop was held again (session 47)
     ("bandai", "idle", "bow", "trunk"): 2.4,  # a bow cutting a stand's loop short turns the head fast (3.1x until session 45)
     # (a stand's loop into itself turned the trunk at 1.9x until it blended into 0.7 of the stand, session 45)
-    ("bandai", "walk", "idle", "acc"): 1.85,
+    # (a stop's root at 1.85x until session 47: its carried speed was a frame ahead of the walk's, and a blend into a
+    # one-shot now changes the carried body's velocity no faster than its verbs' own: test_a_stop_brakes_as_its_verbs_do)
     # (the walk ↔ run arms, a CMU forearm bending 80° in 0.19 s at 3.4x, 2.5x and Bandai's at 1.6x, and a stop's at
     # 1.65x, until session 46 carried the arms on past those blends: tests/test_arms.py)
-    ("cmu", "walk", "run", "acc"): 1.6,
+    ("cmu", "walk", "run", "acc"): 1.55,  # 1.6 until session 47
 }  # fmt: skip
 
 
@@ -251,9 +254,60 @@ def test_a_foot_re_placed_after_a_stop_is_held_again(graphs):
     for i, runs in enumerate(perf.report.phases):
         for a, b in runs:
             held[a:b, i] = True
-    stepped = ~held[int(9.7 * FPS) : int(10.0 * FPS), 1]
+    stepped = ~held[int(9.75 * FPS) : int(10.1 * FPS), 1]
     assert stepped.all(), "the script should step the right foot after its stop"
-    assert held[int(10.2 * FPS) : int(10.5 * FPS)].all(), np.flatnonzero(~held.all(axis=1)) / FPS
+    assert held[int(10.25 * FPS) : int(10.5 * FPS)].all(), np.flatnonzero(~held.all(axis=1)) / FPS
+
+
+def test_a_stop_stands_on_a_foot_throughout(graphs):
+    """A stop's trailing foot, 15 cm from where the stand has it while the walk still swung the other, was let go to be
+    re-placed before the other landed: for 0.13 s neither foot was within 1 cm of the floor (neither toe nor ankle),
+    the fixed script at seed 17. A standing creature now steps one foot at a time (``planted._others_down``). Read off
+    the frames: every frame of every stop has a toe or an ankle within 1 cm of its lowest, in the fixed script and in
+    random gesture scripts."""
+    from test_edges import gesture_script
+
+    graph = graphs["bandai"]
+    names = graph.skeleton.names
+    joints = [names.index(n) for n in ("Toes_L", "Toes_R", "Foot_L", "Foot_R")]
+    stops = [k for k, t in enumerate(graph.transitions) if graph.verbs[t.source].cyclic and not graph.verbs[t.target].cyclic]
+    script, seconds, _, _ = SCRIPTS["bandai"]
+    cues = [Cue(t, adverbs=v) if isinstance(v, dict) else Cue(t, v) for t, v in script]
+    runs = [perform(graph, cues, seconds=seconds, seed=s, adverbs=a, start="idle", stay=True) for s, a in POINTS["bandai"]]
+    runs += [perform(graph, *gesture_script(s)[:1], seconds=28.0, seed=s, adverbs=gesture_script(s)[1], start="idle") for s in (203, 207)]
+    checked = 0
+    for perf in runs:
+        pos = perf.planted.global_positions()[:, joints, 1]
+        down = (pos - np.percentile(pos, 1, axis=0) <= 0.01).reshape(-1, 2, 2).any(axis=1)
+        stopping = np.isin(perf.active, stops)
+        checked += int(stopping.sum())
+        assert down[stopping].any(axis=1).all(), np.flatnonzero(stopping & ~down.any(axis=1)) / FPS
+    assert checked > 60, checked
+
+
+@pytest.mark.parametrize("seed", [201, 205, 206])
+def test_a_stop_brakes_as_its_verbs_do(graphs, seed):
+    """A stop's body, carried by its feet at the speed of the blend of the walk's and the stand's own velocities, took
+    that speed at the step's end where the root's own advance takes the step's start: the first step of the blend
+    skipped a frame's change (1.88 -> 1.51 m/s in a frame as the walk slowed after a heel strike, 11 m/s²), and the
+    blend into the stand changed the body's velocity as fast as the blend did. Now the carried step goes at the
+    step's start, and a blend into a one-shot changes it no faster than its verbs' own (``player.carry_limits``).
+    Random gesture scripts whose stops went 1.50-1.58x their verbs' own: every stop's root acceleration within 1.25x
+    (0.99-1.02x here; the issue's bound is 1.5x)."""
+    from test_edges import gesture_script
+
+    graph = graphs["bandai"]
+    cues, adverbs = gesture_script(seed)
+    perf = perform(graph, cues, seconds=28.0, seed=seed, adverbs=adverbs, start="idle")
+    acc = _root_acceleration(perf, graph)
+    own = max(
+        _root_acceleration(perform(graph, [], seconds=6.0, seed=seed, start=v, adverbs=adverbs, stay=True), graph)[2:].max()
+        for v in ("walk", "idle")
+    )
+    stops = _windows(perf, graph, {("walk", "idle")})
+    assert stops, "the script should stop"
+    worst = max(acc[a:b].max() for _, _, a, b in stops)
+    assert worst <= 1.25 * own, f"a stop's root at {worst / own:.2f}x its verbs' own"
 
 
 def _root_acceleration(perf, graph):

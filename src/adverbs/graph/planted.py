@@ -126,10 +126,19 @@ def plant(feet: GraphFeet, frame: Frame, dt: float, alone: np.ndarray, standing:
     flat = (p.mode == BALL) & (p.turn == 0.0)
     far = flat & (gap > np.where(alone, REPLANT, LEFT_BEHIND)[:, None])
     if standing is not None:
-        feet.replanting |= np.where(standing[:, None], _standing_far(flat, away, gap), far)
+        steps = _standing_far(flat, away, gap) & _others_down(p.mode, feet.replanting)
+        feet.replanting |= np.where(standing[:, None], steps, far)
     else:
         feet.replanting |= far
     return out
+
+
+def _others_down(mode: np.ndarray, replanting: np.ndarray) -> np.ndarray:
+    """Which feet ``(C, L)`` have every other foot down (held, not being re-placed): a standing creature steps one foot
+    at a time. A stop's trailing foot, 15 cm from where the stand has it while the walk still swung the other, was let
+    go before that one landed, and the body stood on neither foot for 0.2 s."""
+    down = (mode != FREE) & ~replanting
+    return down.sum(axis=1, keepdims=True) - down == mode.shape[1] - 1
 
 
 def _standing_far(flat: np.ndarray, away: np.ndarray, gap: np.ndarray) -> np.ndarray:

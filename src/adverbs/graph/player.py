@@ -278,8 +278,11 @@ def _step(state: GraphState, dt: float) -> Frame:
     # The root moves at the velocities of the step's start, as a clip's velocity columns say (a frame's velocity is
     # its step to the next): a verb playing alone travels exactly as its synthesized clip does.
     new_root = advance_root(state.root, state.moving, dt)
-    speed = _speeds(state, base, vel)
-    _at_blend_speed(state, vel, speed)
+    # ... and so does a body carried by its feet (_keep_feet): at the speed of the step's start. Held to the speed
+    # at its end, the first step of a blend skipped a frame's change and its last repeated one: a stop begun as the
+    # walk slowed after a heel strike went 1.88 -> 1.51 m/s in a frame (11 m/s², the walk's own 6).
+    step_speed = np.hypot(state.moving[:, 0], state.moving[:, 1])
+    _at_blend_speed(state, vel, _speeds(state, base, vel))
     state.moving = vel
     rot, trans, rot_b = _decode(state, base, new_root)
     if before is not None:
@@ -311,7 +314,7 @@ def _step(state: GraphState, dt: float) -> Frame:
     # One verb (alone, or looping into itself: its instances keep their feet alike) and no decaying offset.
     state.alone = ((state.active < 0) | ~state.graph.between_verbs[state.active]) & ~blended
     state.standing = _standing(state)
-    new_root = _keep_feet(state, rot, trans, new_root, held, roll, blended, speed, dt)
+    new_root = _keep_feet(state, rot, trans, new_root, held, roll, blended, step_speed, dt)
     vel = _velocity(state.root, new_root, dt)
     state.root = new_root
     state.shown_before, state.shown = state.shown, (rot, trans, vel)
@@ -481,8 +484,9 @@ def _keep_feet(
     ``trans`` (the body root's) is moved with it, in place. A verb's loop into itself blends two instances of one
     verb, which keep their feet alike: its root is the verb's own, so it turns and travels as the verb does. A
     decaying offset (an inertial blend, an interruption) moves the legs as a blend does, and the body is carried
-    the same way. The carried body goes along the root's advance at ``speed (C,)`` m/s (:func:`_speeds`) in a cosine
-    blend (the blend of the verbs' own), and at no less than it under a decaying offset (the root's own), its velocity
+    the same way. The carried body goes along the root's advance at ``speed (C,)`` m/s, the speed of the step's start
+    as the root's own advance takes it (:func:`_speeds` a frame ago), in a cosine blend (the blend of the verbs' own),
+    and at no less than it under a decaying offset (the root's own), its velocity
     changing no faster than :func:`carry_limits` allows there. Carried
     by the whole slip, a run braked nearly to a standstill on its way into a walk and lurched on, a start threw
     the body past the walk's speed, and a run for a second after an interruption dipped to 1.9 m/s and lurched on
@@ -508,7 +512,12 @@ def _keep_feet(
     # blend had held the body to its speed while the slip ran ahead, and a command that cut it short let the whole
     # slip carry it at once (a start cut short two frames in went from 0.07 to 0.37 m/s in a frame, 13 m/s²).
     change = np.full(len(rows), np.inf)
-    change[~cosine] = carry_limits(state, rows[~cosine])
+    # So does a cosine blend into a one-shot (a stop, a gesture): a stop held to the blend's speed alone braked at
+    # 7-11 m/s² where the walk's own is 4-6, and a gesture entered from a stand still carrying the stop's last speed
+    # dropped it in a frame (its own 0.15 m/s²). A blend from one cycle into another keeps to the blend's speed: held
+    # back, a CMU walk → run of 0.17 s left the run's speed to be taken up in one frame once it ended (21 m/s²).
+    limited = ~cosine | ~graph.cyclic[state.into[rows]]
+    change[limited] = carry_limits(state, rows[limited])
     keep_feet(
         graph.skeleton.parents, graph.feet_array, rows, w, rot, trans, state.shown[0], state.shown[1],
         np.ascontiguousarray(state.shown[2]), graph.verbs[0].encoding.body_root, graph.inverse_above_body, root,

@@ -443,6 +443,7 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
             vel[a] += spring(offset_root[c, a], 0.0, offset_since[c], offset_halflife[c], k_[_LN2])
     # The root moves at the velocities of the step's start (a frame's velocity is its step to the next).
     x1, z1, h1 = advance_root_row(x0, z0, h0, moving[c, 0], moving[c, 1], moving[c, 2], dt)
+    step_speed = math.hypot(moving[c, 0], moving[c, 1])  # ... and so does a body its feet carry (player._step)
     for a in range(3):
         moving[c, a] = vel[a]
     # In a cosine blend the body goes at the speed of the blend of the verbs' own velocities (player._speeds), and
@@ -541,11 +542,14 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
         if live or cosine:
             for i in range(feet.shape[0]):
                 wts[i] = (1.0 if (held[c, i] and held_before[c, i]) else 0.0) * (1.0 - roll[c, i])
-            # In a cosine blend the speed of the blend of the verbs' own velocities, else at least the root's own (player._speeds).
-            lo, hi, change = math.hypot(vel[0], vel[1]), np.inf, np.inf
+            # At the speed of the step's start: in a cosine blend the blend of the verbs' own velocities, else at
+            # least the root's own (player._step, player._speeds).
+            lo, hi, change = step_speed, np.inf, np.inf
             fade = 1.0  # under a decaying offset alone, as much of the slip as is left of the offset (player._keep_feet)
             if cosine:
-                lo = hi = blend_speed
+                hi = step_speed
+                if not verbs[5][into[c]]:  # into a one-shot: its velocity changing no faster than its verbs' own
+                    change = _carry_limit(c, verbs, caches, state)
             else:
                 change = _carry_limit(c, verbs, caches, state)
                 fade = spring(1.0, 0.0, offset_since[c], offset_halflife[c], k_[_LN2])
@@ -773,10 +777,14 @@ def _plant(lo, hi, dt, outputs, planted, feet, start, k_):  # pragma: no cover -
                     further, most = i, gap
             shifted = flat_all and math.hypot(mx / n_l, mz / n_l) > k_[_SHIFTED]
         far = k_[_STANDING] if standing else (k_[_REPLANT] if kinds[c, 0] else k_[_LEFT_BEHIND])
+        down = 0  # standing, a foot steps only while every other is down (planted._others_down)
+        for i in range(n_l):
+            if mode[c, i] != FREE and not replanting[c, i]:
+                down += 1
         for i in range(n_l):
             if mode[c, i] == BALL and turn[c, i] == 0.0:
                 gap = math.hypot(prev_free[c, i, 0] - target[c, i, 0], prev_free[c, i, 2] - target[c, i, 2])
-                if gap > far or (shifted and i == further):
+                if (gap > far or (shifted and i == further)) and (not standing or down - (not replanting[c, i]) == n_l - 1):
                     replanting[c, i] = True
     return finite
 
