@@ -101,7 +101,8 @@ def plant(feet: GraphFeet, frame: Frame, dt: float, alone: np.ndarray, standing:
     ends with the left toe 11 cm behind where the stand has it), and a stop lands its feet where the walk had them.
     Re-placed at 6 or 12 cm, a stand after a gesture or a stop stepped, its knee at 200-320 deg/s where the stand's
     own turns at 10-60. Held where they are, the legs reach them; a foot out of its leg's reach is re-placed at any
-    distance (``spent``, below)."""
+    distance (``spent``, below). Standing, a foot is re-placed only while every other foot is down
+    (:func:`_others_down`)."""
     p = feet.planter
     held = frame.held & ~feet.replanting
     swinging = np.where(frame.held, 0.0, frame.swing)
