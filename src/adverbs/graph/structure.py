@@ -231,22 +231,17 @@ class Graph:
         chains = next((v.leg_chains for v in self.verbs if v.constraints), None)
         if chains is None:
             return np.zeros(0, dtype=np.int64)
-        parents = np.asarray(self.skeleton.parents)
+        skeleton = self.skeleton
+        parents = skeleton.parents
         hips, above = {int(j) for j in chains.upper}, {int(j) for j in chains.above}
-
-        def under(j: int) -> list[int]:  # j and every joint that hangs from it
-            out, todo = [], [j]
-            while todo:
-                k = todo.pop()
-                out.append(k)
-                todo += [int(i) for i in np.flatnonzero(parents == k)]
-            return out
-
-        upper = [j for j in range(len(parents)) if j not in above and int(parents[j]) in above and j not in hips]
-        for j in sorted(k for top in upper for k in under(top)):
-            branches = sorted((under(int(i)) for i in np.flatnonzero(parents == j)), key=len)
+        upper = np.zeros(skeleton.num_joints, dtype=bool)
+        for j in range(skeleton.num_joints):
+            if j not in above and int(parents[j]) in above and j not in hips:
+                upper |= skeleton.below(j)
+        for j in np.flatnonzero(upper):
+            branches = sorted((skeleton.below(i) for i in skeleton.children(int(j))), key=np.count_nonzero)
             if len(branches) > 1:
-                return np.array(sorted(k for b in branches[1:] for k in b), dtype=np.int64)
+                return np.flatnonzero(np.any(branches[1:], axis=0)).astype(np.int64)
         return np.zeros(0, dtype=np.int64)
 
     @cached_property
