@@ -275,6 +275,31 @@ def test_adverb_changes_are_eased_and_do_not_pop(cmu):
     assert during <= 1.5 * max(before, after), (before, during, after)
 
 
+def test_an_adverb_change_eases_as_long_as_it_needs_unless_told(cmu):
+    """By default a change eases over what ``ease_length`` works out for the verbs the creature plays, at the change
+    (from 0.5 to 3 s: a walk going from 0.9 to 1.8 m/s needs more than half a second); ``over`` is taken as given. The
+    log and the cue list say how long each took, and the point arrives when the ease is over."""
+    from adverbs.apps.scene import cue_lines
+    from adverbs.graph.easing import EASE, MOST_EASE, ease_length
+
+    sim = Simulation(cmu, fps=30.0)
+    c = sim.add_creature(adverbs={"walk_speed": 0.9}, name="a")
+    sim.run(1.0)
+    s = c._group.state
+    target = cmu.point({**c.adverbs, "walk_speed": 1.8})
+    verbs = [s.verb[0]] + ([s.into[0]] if s.active[0] >= 0 else [])
+    need = ease_length(cmu, verbs, s.points[0], target)
+    c.set_adverbs(walk_speed=1.8)
+    assert EASE < need <= MOST_EASE
+    assert sim.log[-1]["eased"] == round(need, 6)
+    sim.run(need + 0.1)
+    assert c.adverbs["walk_speed"] == 1.8
+    c.set_adverbs(walk_speed=1.2, over=0.7)
+    assert sim.log[-1]["eased"] == 0.7
+    lines = cue_lines(sim, "a")
+    assert f"adverbs eased in over {need:.2f} s" in lines[0] and "adverbs eased in over 0.70 s" in lines[1], lines
+
+
 # ----- scripts ---------------------------------------------------------------------------------------------
 
 
@@ -443,5 +468,6 @@ def test_reports_after_close_a_refused_nan_and_a_cue_whose_adverbs_were_set(cmu,
     sim.run(3.0)  # the log spills again, into a new folder
     lines = cue_lines(sim, c.name)
     assert any("turn=nan: refused" in line for line in lines), lines
-    perf = perform(cmu, [Cue(1.0, "fly", {"turn": -30.0})], seconds=2.0)
-    assert perf.cues[0][2].startswith("adverbs set; refused: ") and perf.state.points[0][cmu.adverb_names.index("turn")] == -30.0
+    perf = perform(cmu, [Cue(1.0, "fly", {"turn": -30.0})], seconds=4.5)  # (an ease is at most 3 s)
+    assert perf.cues[0][2].startswith("adverbs set, eased over ") and "; refused: " in perf.cues[0][2]
+    assert perf.state.points[0][cmu.adverb_names.index("turn")] == -30.0

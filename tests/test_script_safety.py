@@ -159,7 +159,7 @@ def test_mutated_scripts_load_bounded_and_play_finite_or_are_refused_naming_the_
                 for c in script.creatures:
                     assert all(math.isfinite(x) and abs(x) <= PLACE_LIMIT for x in c.at), c
                     assert math.isfinite(c.heading) and abs(c.heading) <= 360.0, c
-                assert all(0.0 <= cue.at <= 86_400 and math.isfinite(cue.over) for cue in script.cues)
+                assert all(0.0 <= cue.at <= 86_400 and (cue.over is None or math.isfinite(cue.over)) for cue in script.cues)
                 assert [cue.at for cue in script.cues] == sorted(cue.at for cue in script.cues)
                 sim = Simulation(graphs, fps=30, seed=script.seed or 0)
                 script.apply(sim)

@@ -217,7 +217,7 @@ def cue_lines(sim: Simulation, creature: str) -> list[str]:
         if e["status"] == "refused":
             outcome = f"refused: {e['reason']}"
         elif e["command"] == "adverbs":
-            outcome = "adverbs eased in" if e.get("over") else "adverbs set"
+            outcome = f"adverbs eased in over {e['eased']:.2f} s" if e.get("eased") else "adverbs set"
         else:
             outcome = f"{e['verb']} not playing alone by the end"
             for later in mine[i + 1 :]:

@@ -19,7 +19,7 @@ from ..kinematics.floor import Floor
 from ..motion.clip import Clip
 from ..feet.offline import PlantingReport, report_of_modes
 from ..verb.synthesis import MAX_FPS, plan
-from .easing import EASE, Easing
+from .easing import Easing, creature_ease
 from .planted import plant, planter
 from .player import first_frame, step
 from .queue import command
@@ -56,6 +56,7 @@ class Performance:
     refused: list[tuple[float, str]]
     state: GraphState
     cues: list[tuple[float, str, str]] = field(default_factory=list)  # (time, the cue in words, what became of it)
+    eases: list[tuple[float, float]] = field(default_factory=list)  # each adverb change: (its time, seconds eased over)
 
     def cue_lines(self) -> list[str]:
         """Every cue of the script, a line each: its time, what it asked, what became of it."""
@@ -74,7 +75,7 @@ def perform(
     root: Sequence[float] = (0.0, 0.0, 0.0),
     from_start: bool = False,
     planned: bool = False,
-    ease: float = EASE,
+    ease: float | None = None,
     stay: bool = False,
 ) -> Performance:
     """Play ``seconds`` of one creature through ``graph`` at ``fps``, following ``script``; plant its feet on ``floor``
@@ -91,7 +92,9 @@ def perform(
     ``MAX_SECONDS`` and 1 to ``MAX_FPS`` frames a second.
 
     An adverb cue eases from the point shown to the one asked for over ``ease`` seconds (smoothstep; 0: at once),
-    as the run time's adverb changes do, so a cue during a gesture does not snap its pose.
+    as the run time's adverb changes do, so a cue during a gesture does not snap its pose; by default (None) over
+    as long as the change needs for no part of the body to turn faster than its verbs' own
+    (:func:`~adverbs.graph.easing.ease_length`: 0.5 to 3 s). :attr:`Performance.eases` records each change's.
 
     ``stay``: the first verb, and each verb a cue asks for, keeps playing, through its loop into itself, until a cue
     asks for another (a verb without a loop goes on by a drawn transition to one that has, and stays there: see
@@ -121,6 +124,7 @@ def perform(
     easing = Easing(state.points)
     refused: list[tuple[float, str]] = []
     outcomes: list[list] = []  # per cue: [time, words, what became of it]
+    eases: list[tuple[float, float]] = []
     waiting: int | None = None  # the cue whose verb has not played alone yet
     unreachable, miss = 0, 0.0
     k = 0
@@ -132,9 +136,11 @@ def perform(
             outcomes.append([cue.time, _words(cue), "ran"])
             try:
                 if cue.adverbs:
-                    p = graph.point({**dict(zip(graph.adverb_names, easing.to[0])), **cue.adverbs})
-                    easing.set(0, state.points[0], graph.check_point(p), now, ease, state.points)
-                    outcomes[-1][2] = "adverbs set"
+                    p = graph.check_point(graph.point({**dict(zip(graph.adverb_names, easing.to[0])), **cue.adverbs}))
+                    over = creature_ease(graph, state, 0, p, ease)
+                    easing.set(0, state.points[0], p, now, over, state.points)
+                    eases.append((cue.time, over))
+                    outcomes[-1][2] = f"adverbs set, eased over {over:.2f} s"
                 if cue.verb is not None:
                     arrived = len(state.latencies)
                     command(state, 0, cue.verb, stay=stay)
@@ -147,7 +153,7 @@ def perform(
                         waiting = None
             except (CommandRefused, AdverbsError) as e:
                 refused.append((cue.time, str(e)))
-                done = "adverbs set; " if outcomes[-1][2] == "adverbs set" else ""  # the verb refused, its adverbs kept
+                done = f"{outcomes[-1][2]}; " if outcomes[-1][2].startswith("adverbs set") else ""  # the verb refused, its adverbs kept
                 outcomes[-1][2] = f"{done}refused: {e}"
         before = len(state.latencies)
         first = from_start and f == 0
@@ -178,7 +184,7 @@ def perform(
     name = graph.name
     planted = Clip(graph.skeleton, rot, trans, fps, name=name)
     free = Clip(graph.skeleton, free_rot, free_trans, fps, name=name)
-    return Performance(planted, free, playing, active, verb, report, refused, state, [tuple(o) for o in outcomes])
+    return Performance(planted, free, playing, active, verb, report, refused, state, [tuple(o) for o in outcomes], eases)
 
 
 def _words(cue: Cue) -> str:

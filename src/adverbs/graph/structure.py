@@ -245,6 +245,21 @@ class Graph:
         return np.zeros(0, dtype=np.int64)
 
     @cached_property
+    def parts(self) -> tuple[np.ndarray, ...]:
+        """The body's parts, each its joints ``(n,)``: the legs (a held foot's hip and what hangs from it), the arms
+        (:attr:`arms`) and the rest (the trunk, neck and head); the whole body, one part, in a graph whose verbs hold
+        no feet. What an adverb change's ease is measured by (:func:`~adverbs.graph.easing.ease_length`)."""
+        chains = next((v.leg_chains for v in self.verbs if v.constraints), None)
+        n = self.skeleton.num_joints
+        if chains is None:
+            return (np.arange(n),)
+        legs = np.any([self.skeleton.below(int(h)) for h in chains.upper], axis=0)
+        arms = np.zeros(n, dtype=bool)
+        arms[self.arms] = True
+        parts = [np.flatnonzero(legs), np.flatnonzero(arms & ~legs), np.flatnonzero(~legs & ~arms)]
+        return tuple(p for p in parts if len(p))
+
+    @cached_property
     def hold_layout(self) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
         """Per verb: its holds' opening generic times ``(L_v,)`` and which of :attr:`feet` each hold is ``(L_v,)``."""
         return tuple(

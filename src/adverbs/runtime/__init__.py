@@ -1,7 +1,8 @@
 """The run-time loop (§6): events and clocks, creatures on verb graphs in one simulation, timed scripts."""
 
 from .events import NORMAL, OPTIONAL, SYNC, Event, EventQueue, VirtualClock, WallClock, run_events
-from .simulation import EASE, Creature, Simulation
+from ..graph.easing import EASE
+from .simulation import Creature, Simulation
 
 __all__ = [
     "EASE",

@@ -19,7 +19,7 @@
     perform = "walk"                   # a verb, through the graph's planner
     stay = true                        # keep playing it until the next cue (default)
     adverbs = { valence = 0.8, turn = 30 }
-    over = 1.0                         # seconds to ease the adverbs in (default 0.5)
+    over = 1.0                         # seconds to ease the adverbs in (default: as the change needs, 0.5-3)
 
 A malformed script — not TOML, over 1 MiB, a field of the wrong type, an unknown field or creature, a cue with
 nothing to do, a creature placed more than 10 km from the origin (where floors end) or turned past ±360° — is
@@ -38,7 +38,7 @@ from pathlib import Path
 from ..errors import AdverbsError
 from ..kinematics.floor import LEVEL_LIMIT
 from ..verb.spec import read_toml_text
-from .simulation import EASE, Simulation
+from .simulation import Simulation
 
 CREATURE_FIELDS = {"name", "graph", "at", "heading", "verb", "adverbs"}
 CUE_FIELDS = {"at", "creature", "perform", "stay", "adverbs", "over"}
@@ -73,7 +73,7 @@ class CueSpec:
     perform: str | None = None
     stay: bool = True
     adverbs: dict[str, float] = field(default_factory=dict)
-    over: float = EASE
+    over: float | None = None
     line: int = 0
 
 
@@ -225,7 +225,7 @@ def _cues(value, text, path, creatures: list[CreatureSpec]) -> list[CueSpec]:
         if not isinstance(stay, bool):
             raise ScriptError(path, at_line("stay"), f"{where}.stay", f"must be true or false, got {stay!r}")
         adverbs = _adverbs(t.get("adverbs", {}), path, at_line("adverbs"), f"{where}.adverbs")
-        over = _number(t.get("over", EASE), path, at_line("over"), f"{where}.over", 0.0, 3600.0)
+        over = None if "over" not in t else _number(t["over"], path, at_line("over"), f"{where}.over", 0.0, 3600.0)
         if perform is None and not adverbs:
             raise ScriptError(path, line, where, "a cue does something: give it perform = VERB or adverbs = { ... }")
         out.append(CueSpec(at, creature, perform, stay, adverbs, over, line))
