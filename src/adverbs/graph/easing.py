@@ -71,7 +71,8 @@ def _angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def _sampled(graph, v: int, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Verb ``v`` over its whole generic time at verb points ``points (Q, A_v)``: its rotations ``(Q, G, J, 4)`` and
-    each part's fastest joint ``(Q, P)`` (rad/s, between samples, by the verb's clock at each point)."""
+    each part's fastest joint at the first and the last point ``(2, P)`` (rad/s, between samples, by the verb's clock
+    at each)."""
     from ..interp.timewarp import clock_time
     from ..verb.sampling import dofs
 
@@ -80,8 +81,9 @@ def _sampled(graph, v: int, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     d = dofs(verb, np.repeat(points, len(g), axis=0), np.tile(g, len(points)))
     rot, _ = verb.encoding.decode_pose(d, np.zeros((len(d), 3)))
     rot = rot.reshape(len(points), len(g), -1, 4)
-    seconds = np.stack([clock_time(g, verb.keytimes(p), verb.generic_keytimes) for p in points])
-    speed = _angle(rot[:, 1:], rot[:, :-1]) / np.maximum(np.diff(seconds, axis=1), 1e-9)[..., None]
+    ends = rot[[0, -1]]
+    seconds = np.stack([clock_time(g, verb.keytimes(p), verb.generic_keytimes) for p in points[[0, -1]]])
+    speed = _angle(ends[:, 1:], ends[:, :-1]) / np.maximum(np.diff(seconds, axis=1), 1e-9)[..., None]
     return rot, np.stack([speed[..., j].max(axis=(1, 2)) for j in graph.parts], axis=1)
 
 
@@ -96,7 +98,7 @@ def ease_length(graph, verbs, shown: np.ndarray, target: np.ndarray) -> float:
     whole way at its steepest: the most a joint of the part turns over one of its pieces, at any generic time,
     times their number. Smoothstep's steepest is 1.5 times its mean, so over ``T`` the change turns the part at
     most ``1.5 Δθ / T``; held to ``HEADROOM · ω``, ``T = 1.5 Δθ / (HEADROOM ω)``, the longest any verb and part
-    needs. It samples the verbs (a few ms a change, at the change: an event, not a frame)."""
+    needs. It samples the verbs (about 2 ms a change, at the change: an event, not a frame)."""
     shown, target = np.asarray(shown, dtype=float), np.asarray(target, dtype=float)
     line = shown + np.linspace(0.0, 1.0, _PATH)[:, None] * (target - shown)
     need = 0.0
@@ -107,8 +109,7 @@ def ease_length(graph, verbs, shown: np.ndarray, target: np.ndarray) -> float:
         rot, own = _sampled(graph, v, path)
         steepest = _angle(rot[1:], rot[:-1]).max(axis=1) * (_PATH - 1)  # (pieces, J)
         turn = np.array([steepest[:, j].max() for j in graph.parts])
-        ends = np.maximum(own[0], own[-1])
-        need = max(need, float((_PEAK * turn / (HEADROOM * np.maximum(ends, 1e-6))).max()))
+        need = max(need, float((_PEAK * turn / (HEADROOM * np.maximum(own.max(axis=0), 1e-6))).max()))
     return float(np.clip(need, EASE, MOST_EASE))
 
 
