@@ -106,7 +106,7 @@ def measure(name: str) -> dict[tuple[str, str], list[float]]:
         cues = [Cue(t, adverbs=v) if isinstance(v, dict) else Cue(t, v) for t, v in script]
         perf = perform(graph, cues, seconds=seconds, seed=seed, adverbs=adverbs, start=graph.verb_names[0])
         m = Measured(perf, graph, *args)
-        spans = _points_in_effect(adverbs, script)
+        spans = _points_in_effect(adverbs, script, perf.eases)
         owns = [{v: _own(graph, v, args[0], seed, p) for v in graph.verb_names} for _, _, p in spans]
         for s, t, a, b in _windows(perf, graph, {(x, y) for x in graph.verb_names for y in graph.verb_names}):
             mine = [o for (start, end, _), o in zip(spans, owns) if start <= b / FPS and a / FPS < end]

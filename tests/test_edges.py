@@ -447,14 +447,14 @@ def test_a_standing_body_carried_by_its_feet_speeds_up_no_harder_than_its_verbs(
     (its feet let go) had put the body back on its own velocity in one frame. Random gesture scripts (of 30 tried,
     these broke the bound by the most, at 6.9, 4.8 and 7.0x): no transition between standing verbs accelerates the
     body root more than 1.5x its verbs' own."""
-    from test_transitions import _root_acceleration
+    from test_transitions import STILL, _root_acceleration
 
     cues, adverbs = gesture_script(seed)
     perf = perform(bandai, cues, seconds=28.0, seed=seed, adverbs=adverbs, start="idle")
     acc = _root_acceleration(perf, bandai)
     standing = ("idle", "reach", "bow", "guide", "bye")
-    own = {v: _root_acceleration(perform(bandai, [], seconds=6.0, seed=seed, start=v, adverbs=adverbs, stay=True), bandai)[2:].max()
-           for v in standing}  # fmt: skip
+    own = {v: max(_root_acceleration(perform(bandai, [], seconds=6.0, seed=seed, start=v, adverbs=adverbs, stay=True), bandai)[2:].max(), STILL)
+           for v in standing}  # fmt: skip (a stand in place has none of its own: test_transitions.STILL)
     entries = _windows(perf, bandai, {(x, y) for x in standing for y in standing})
     assert len(entries) >= 8, entries
     for s, t, a, b in entries:
@@ -486,6 +486,8 @@ def test_the_carry_limit_at_an_examples_point_is_that_examples_own(bandai, name)
     (``player.carry_limits``). At an example's own point (its weight 1, the others' 0) that is the example's own
     fastest (``Verb.root_accelerations``), to rounding; between them it is no more than the fastest of them (the
     limit before: the examples' fastest blended, which for a reach was twice its own at the point)."""
+    from adverbs.verb.tables import SETTLING
+
     verb = bandai.verbs[bandai.verb_index(name)]
     profile, fastest = verb.root_acceleration_profile, verb.root_accelerations
     assert profile.shape == (len(fastest), profile.shape[1], 3) and profile.shape[1] >= 64
@@ -494,8 +496,8 @@ def test_the_carry_limit_at_an_examples_point_is_that_examples_own(bandai, name)
         blended = np.einsum("e,esk->sk", weights[: len(fastest)], profile)
         return float(np.max(np.hypot(blended[:, 0], blended[:, 1]) + np.maximum(blended[:, 2], 0.0)))
 
-    for e, point in enumerate(verb.points):
-        np.testing.assert_allclose(own(verb.weights(point)), fastest[e], rtol=1e-9, atol=1e-12)
+    for e, point in enumerate(verb.points):  # (at least SETTLING: a stand in place has none of its own)
+        np.testing.assert_allclose(max(own(verb.weights(point)), SETTLING), fastest[e], rtol=1e-9, atol=1e-12)
     middle = verb.weights(verb.points.mean(axis=0))
     assert own(middle) <= fastest.max() + 1e-12
 
@@ -523,19 +525,15 @@ def test_a_standing_foot_is_re_placed_only_far_off_or_with_the_body_off_both():
     assert far((SHIFTED + 0.01, 0.0), (-SHIFTED - 0.01, 0.0)) == [False, False]  # a wider stance: the body over it
 
 
-@pytest.mark.parametrize("gesture, valence", [
-    ("guide", 0.0), ("reach", 0.0), ("reach", -0.8),
-    pytest.param("guide", 0.8, marks=pytest.mark.xfail(strict=True, reason=(
-        "issue 32: the happy stand's loop travels 1.2 cm/s forward over its held feet (each loop's seam adds the "
-        "clip's travel) until a foot is 15 cm off and steps"))),
-])  # fmt: skip
+@pytest.mark.parametrize("gesture, valence", [("guide", 0.0), ("reach", 0.0), ("reach", -0.8), ("guide", 0.8)])
 def test_a_stand_after_a_gesture_keeps_its_feet_where_the_gesture_left_them(bandai, gesture, valence):
     """The stand's takes put the feet up to 12 cm from where a gesture's end has them (the guide's left toe 11 cm
     behind). Re-placed at 6 cm, the stand after a gesture stepped at once: after the guide at valence 0 a knee at
     220 deg/s (6.0x the stand's own legs), after the reach 8.1x, and at valence -0.8 86x (the sad stand's legs are all
     but still). A creature that stands now holds its feet unless one is 15 cm off (``planted.STANDING``) or the
     body is 8 cm off both: the legs of the stand after a gesture (played alone, staying) turn no faster than 1.5x
-    the stand's own."""
+    the stand's own. (After the happy guide the stand's loop crept 1.2 cm/s over its held feet until one was 15 cm
+    off and stepped, until session 48 put the stand in place: ``specs/bandai_idle.toml``.)"""
     from test_transitions import _angular_speed
 
     legs = _parts(bandai)["legs"]

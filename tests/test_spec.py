@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import numpy as np
 import pytest
 from conftest import BANDAI, CMU, SPECS
 
@@ -342,3 +343,29 @@ def test_a_goal_chain_puts_the_hand_on_the_goal(tmp_path):
         clip, k = verb.synthesize(mid, fps=60.0)
         errors.append(abs(measure_all(clip, k, [verb.adverbs[0].measure])[0] - mid[0]))
     assert errors[0] > 0.01 and errors[1] <= 0.002, errors
+
+
+def test_in_place_is_for_one_shots_and_keeps_the_body_where_it_stands(tmp_path):
+    """``in_place`` takes an example's body root travel and turn off every frame (a stand looping into itself crept
+    off its feet and turned, ``specs/bandai_idle.toml``), keeping its height and every other joint's turn; it is a
+    yes or no, and only for a one-shot (a cycle's seam is taken off already)."""
+    from adverbs.io.bvh import read_bvh
+    from adverbs.motion.heading import heading, lateral_axis
+    from adverbs.verb.examples import in_place
+
+    path = spec(tmp_path, example("a", WALK, "adverbs = { mood = 0 }"), example("b", FAST, "adverbs = { mood = 1 }"),
+                head=HEAD.replace("num_cp = 10", "num_cp = 10\nin_place = true"))  # fmt: skip
+    fails(path, None, "in_place", "one-shot")
+    path = spec(tmp_path, example("a", WALK, "adverbs = { mood = 0 }"), example("b", FAST, "adverbs = { mood = 1 }"),
+                head=HEAD.replace("num_cp = 10", 'num_cp = 10\ncyclic = false\nin_place = "yes"'))  # fmt: skip
+    fails(path, None, "in_place", "true or false")
+    take = read_bvh(BANDAI / "dataset-1_bow_sad_001.bvh").frames(185, 221)
+    kept = in_place(take)
+    body = take.skeleton.body_root()
+    (was, _), (pos, rot) = take.forward_kinematics(), kept.forward_kinematics()
+    assert np.ptp(was[:, body, 2]) > 0.008  # the take leans 0.9 cm forward over its 1.17 s
+    np.testing.assert_allclose(pos[:, body, [0, 2]] - pos[0, body, [0, 2]], 0.0, rtol=0, atol=1e-12)
+    face = heading(rot[:, body], lateral_axis(take.skeleton, body))
+    np.testing.assert_allclose(face - face[0], 0.0, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(pos[:, body, 1], was[:, body, 1], rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(kept.rotations[:, 1:], take.rotations[:, 1:])

@@ -71,13 +71,18 @@ def _measures(perf, graph, toes):
     return pos, parts, _root_acceleration(perf, graph)
 
 
+STILL = 0.1  # m/s²: the least root acceleration a verb is taken to have of its own
+
+
 def _own(graph, verb, toes, seed, adverbs):
     """``verb`` played alone (a cyclic verb after its first second): how far a low toe travels, each part's fastest
-    joint and the root's fastest acceleration."""
+    joint and the root's fastest acceleration, at least ``STILL``: a stand stays where it stands
+    (``specs/bandai_idle.toml``, ``in_place``), its own acceleration is nothing, and 1.5x nothing would bound the
+    settling of a body a stop or a gesture left there (up to 0.07 m/s² here; the walk's own is 4-6)."""
     cyclic = graph.verbs[graph.verb_index(verb)].cyclic
     pos, parts, acc = _measures(perform(graph, [], seconds=6.0, seed=seed, start=verb, adverbs=adverbs, stay=True), graph, toes)
     frames = np.arange(30 if cyclic else 2, len(pos))
-    return {"toe": low_travel(pos, _contact(pos), frames), "acc": float(acc[frames].max())} | {
+    return {"toe": low_travel(pos, _contact(pos), frames), "acc": max(float(acc[frames].max()), STILL)} | {
         p: float(s[frames].max()) for p, s in parts.items()
     }
 
@@ -190,8 +195,9 @@ NOT_YET = {
     # likelihood between cues): a run's and a walk's loops into themselves, and the CMU walk → run.
     ("bandai", "run", "run", "toe"): 0.025, ("cmu", "walk", "walk", "toe"): 0.035, ("cmu", "walk", "run", "toe"): 0.035,
     # A foot re-placed in a stand: a step at 200-320 deg/s, where the stand's legs turn at 10-60 (19.1x until session
-    # 47, when a stop's trailing foot began waiting for the other to land before it stepped, landing in the stand)
-    ("bandai", "idle", "idle", "legs"): 20.4,
+    # 47, when a stop's trailing foot began waiting for the other to land before it stepped, landing in the stand;
+    # 20.4x until session 48 put the stand in place, which made its own legs stiller: the step is the same)
+    ("bandai", "idle", "idle", "legs"): 22.4,
     ("bandai", "idle", "reach", "legs"): 1.7,  # 3.95 until a foot stepped after a stop was held again (session 47)
     ("bandai", "idle", "bow", "trunk"): 2.4,  # a bow cutting a stand's loop short turns the head fast (3.1x until session 45)
     # (a stand's loop into itself turned the trunk at 1.9x until it blended into 0.7 of the stand, session 45)
@@ -474,3 +480,26 @@ def test_an_adverb_cue_eases_as_long_as_it_needs(graphs, seed):
     assert max(ratio.values()) <= 1.5, (perf.eases, ratio)
     _, half_second = fastest(0.5)
     assert max(half_second.values()) > 1.5, half_second
+
+
+@pytest.mark.parametrize("seed, adverbs", POINTS["bandai"])
+def test_a_creature_standing_a_minute_stays_where_it_stands(graphs, seed, adverbs):
+    """A minute of standing after a stop: the stand loops into itself, and each loop took on its take's travel and
+    turn, so the body crept off its held feet 0.3-0.6 cm a second and turned about 1° a second (its hips 37-57° from
+    its feet after a minute), and a foot stepped after it every 10-20 s from about half a minute on. The stand is
+    in place now (``in_place``): read off the frames, from 6 s on the hips do not move across the floor or turn,
+    and both feet stay held."""
+    graph = graphs["bandai"]
+    perf = perform(graph, [Cue(0.5, "walk"), Cue(3.0, "idle")], seconds=63.0, seed=seed, adverbs=adverbs, start="idle", stay=True)
+    names = graph.skeleton.names
+    pos = perf.planted.global_positions()[int(6 * FPS) :]
+    hips = pos[:, names.index("Hips")]
+    side = pos[:, names.index("UpperLeg_L")] - pos[:, names.index("UpperLeg_R")]
+    turn = np.degrees(np.unwrap(np.arctan2(side[:, 2], side[:, 0])))
+    assert np.ptp(hips[:, 0]) <= 0.005 and np.ptp(hips[:, 2]) <= 0.005, (np.ptp(hips[:, 0]), np.ptp(hips[:, 2]))
+    assert np.ptp(turn) <= 0.5, np.ptp(turn)
+    held = np.zeros((len(perf.verb), 2), dtype=bool)
+    for i, runs in enumerate(perf.report.phases):
+        for a, b in runs:
+            held[a:b, i] = True
+    assert held[int(6 * FPS) :].all(), np.flatnonzero(~held[int(6 * FPS) :].all(axis=1))[:5] / FPS + 6

@@ -67,6 +67,8 @@ def examples_from_spec(spec: dict[str, Any]) -> tuple[list[Example], list[Adverb
             except AdverbsError as e:
                 raise SpecError(path, str(e), name, "mirror") from None
         pending.append(_cut(path, ex, clip, spec))
+        if spec.get("in_place"):
+            pending[-1].part = in_place(pending[-1].part)
     _place_toe_offs(path, pending)
 
     first = pending[0]
@@ -143,6 +145,33 @@ def examples_from_spec(spec: dict[str, Any]) -> tuple[list[Example], list[Adverb
             )
         )
     return examples, adverbs
+
+
+def in_place(clip: Clip) -> Clip:
+    """``clip`` with its body root's travel across the floor and its turn taken off, frame by frame (the root joint
+    turned about the vertical through the body root, then moved back): the body stays where it stands, facing one
+    way; its height, its lean and every joint's turn are kept.
+
+    For a one-shot verb that stays where it stands (``in_place = true``): the Bandai stand's takes lean 0.2-0.9 cm
+    and turn 0.2-1.0° over their 0.4-1.2 s with the feet still, and a stand looping into itself took that on at each
+    loop. Held by its feet, a standing figure's body crept off them 0.3-0.6 cm a second and turned about 1° a second
+    (the hips 57° from the feet after a minute), and from about half a minute on a foot stepped after it every 10-20
+    s. With the travel taken off evenly over each take (its sway kept), the loop's blend of two parts of the take
+    still crept 5-15 cm and turned 4° a minute; taken off every frame it does not move at all (the takes' sway is
+    within 1.1 cm and 1.1°)."""
+    from ..kinematics import quat
+    from ..motion.heading import heading, lateral_axis
+
+    body = clip.skeleton.body_root()
+    pos, rot = clip.forward_kinematics()
+    face = np.unwrap(heading(rot[:, body], lateral_axis(clip.skeleton, body)))
+    turn = quat.about_y(-(face - face[0]))  # (F, 4)
+    rotations, translations = clip.rotations.copy(), clip.translations.copy()
+    centre = pos[:, body] * np.array([1.0, 0.0, 1.0])
+    rotations[:, 0] = quat.mul(turn, rotations[:, 0])
+    translations[:, 0] = centre + quat.rotate(turn, translations[:, 0] - centre)  # the body root stays where it was
+    translations[:, 0, [0, 2]] -= (pos[:, body] - pos[0, body])[:, [0, 2]]
+    return clip.replace(rotations=rotations, translations=translations)
 
 
 @dataclass

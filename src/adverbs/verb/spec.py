@@ -5,6 +5,8 @@ name = "walk"
 encoding = "logquat"          # or "euler" (the paper's channels)
 num_cp = 12                   # B-spline control points per DOF (NumCP)
 cyclic = true                 # a cycle (walk) or a one-shot motion (reach)
+in_place = false              # a one-shot that stays where it stands (a stand looping into itself): the
+                              # body root's travel and turn taken off every frame of every example
 skeleton = "data/x.bvh"       # optional: every example must be on this skeleton
 cut = { foot = "left", steps = 2 }   # default part of each file: one cycle from a left heel strike
 fps = 30                      # optional: resample every example to this rate (needed when files differ)
@@ -71,6 +73,7 @@ _TOP = {
     "encoding",
     "num_cp",
     "cyclic",
+    "in_place",
     "skeleton",
     "cut",
     "adverbs",
@@ -219,6 +222,11 @@ def load_spec(path: str | Path) -> dict[str, Any]:
     cyclic = raw.get("cyclic", True)
     if not isinstance(cyclic, bool):
         raise SpecError(path, f"cyclic must be true or false, got {_show(cyclic)}", field="cyclic")
+    in_place = raw.get("in_place", False)
+    if not isinstance(in_place, bool):
+        raise SpecError(path, f"in_place must be true or false, got {_show(in_place)}", field="in_place")
+    if in_place and cyclic:
+        raise SpecError(path, "a cycle's seam is taken off already: in_place is for one-shot verbs (cyclic = false)", field="in_place")
     adverbs = raw.get("adverbs", [])
     if not isinstance(adverbs, list):
         raise SpecError(path, "adverbs must be a list of [[adverbs]] tables", field="adverbs")
@@ -323,6 +331,7 @@ def load_spec(path: str | Path) -> dict[str, Any]:
         "encoding": encoding,
         "num_cp": num_cp,
         "cyclic": cyclic,
+        "in_place": in_place,
         "skeleton": raw.get("skeleton"),
         "cut": raw.get("cut"),
         "adverbs": adverbs,

@@ -84,6 +84,7 @@ class ExampleRecord:
 
 TIMINGS = ("extrapolate", "clamp")  # Verb.timing: how keytime intervals behave past the examples
 LIFT_SAMPLES = 128  # Verb.lift_table: samples of each example's foot heights over its generic time
+SETTLING = 0.1  # m/s²: the least root acceleration a verb's examples are taken to have (a stand's sway had 0.1-0.2)
 ACCELERATION_SAMPLES = 65  # Verb.root_acceleration_profile: samples of each example's root velocities over its generic time
 
 
@@ -347,10 +348,12 @@ class Verb:
     @cached_property
     def root_accelerations(self) -> np.ndarray:
         """Each example's fastest horizontal acceleration of its body root ``(E,)``, m/s², over its cycle in its own
-        clock time: ``|v'| + |ω| |v|`` of :attr:`root_acceleration_profile` at its fastest. A stand sways at
-        0.1-0.2 m/s², a walk 3-18. The carry's limit at a creature's adverbs is kept within these."""
+        clock time: ``|v'| + |ω| |v|`` of :attr:`root_acceleration_profile` at its fastest, at least ``SETTLING``. A
+        walk's are 3-18 m/s². The carry's limit at a creature's adverbs is kept within these, so a body carried into a
+        verb that does not travel (a stand in place: none of its own) still comes to rest: with a limit of nothing, a
+        stop's last 4 cm/s went on through the stand's loop and ended in one frame (1.3 m/s²)."""
         p = self.root_acceleration_profile
-        return _frozen(np.max(np.hypot(p[..., 0], p[..., 1]) + p[..., 2], axis=1))
+        return _frozen(np.maximum(np.max(np.hypot(p[..., 0], p[..., 1]) + p[..., 2], axis=1), SETTLING))
 
     def point(self, values: dict[str, float] | Sequence[float] | np.ndarray) -> np.ndarray:
         """An adverb point ``(A,)`` from a mapping of adverb names (missing ones: the examples' mean) or a sequence."""
