@@ -60,7 +60,6 @@ class Easing:
             points[done] = self.to[done]
 
 
-
 def _angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """The angle (radians) between rotations ``a`` and ``b``, element by element."""
     from ..kinematics import quat

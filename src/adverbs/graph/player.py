@@ -455,9 +455,10 @@ def carry_limits(state: GraphState, rows: np.ndarray) -> np.ndarray:
     playing's and the one being entered's. A verb's own is its examples' root accelerations through their cycle
     (``Verb.root_acceleration_profile``) blended with the creature's weights at each generic time, at its fastest,
     kept within the examples' fastest (``Verb.root_accelerations``, at least ``SETTLING``, 0.1 m/s²: a stand in place
-    has none of its own), a bow at 0.6-0.8 m/s², a walk at 3-18. Carried at a walk's pace (4 m/s², the limit before), an interruption jumped a standing
-    body at 2-7x its verbs' own; at the examples' fastest blended (the limit until session 43), a reach's start cut
-    short turned the body at 0.32 m/s², the reach's own at its adverbs 0.15."""
+    has none of its own), a bow at 0.6-0.8 m/s², a walk at 3-18. Carried at a walk's pace (4 m/s², the limit
+    before), an interruption jumped a standing body at 2-7x its verbs' own; at the examples' fastest blended (the
+    limit until session 43), a reach's start cut short turned the body at 0.32 m/s², the reach's own at its adverbs
+    0.15."""
     out = np.zeros(len(rows))
     for slot, verbs in ((0, state.verb[rows]), (1, state.into[rows])):
         for v in np.unique(verbs[verbs >= 0]):
