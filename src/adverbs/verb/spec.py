@@ -226,7 +226,9 @@ def load_spec(path: str | Path) -> dict[str, Any]:
     if not isinstance(in_place, bool):
         raise SpecError(path, f"in_place must be true or false, got {_show(in_place)}", field="in_place")
     if in_place and cyclic:
-        raise SpecError(path, "a cycle's seam is taken off already: in_place is for one-shot verbs (cyclic = false)", field="in_place")
+        raise SpecError(
+            path, "a cycle's seam is taken off already: in_place is for one-shot verbs (cyclic = false)", field="in_place"
+        )
     adverbs = raw.get("adverbs", [])
     if not isinstance(adverbs, list):
         raise SpecError(path, "adverbs must be a list of [[adverbs]] tables", field="adverbs")
