@@ -163,8 +163,9 @@ def _angular_speed(rotations: np.ndarray) -> np.ndarray:
 
 
 def test_an_adverb_cue_during_a_gesture_eases_in(bandai):
-    """``16:valence=0.9`` during a sad bow turned a hand 1,320 deg/s in one frame; eased over half a second it stays
-    within 1.5x the bow's own fastest joint (the bow alone, at either valence)."""
+    """``16:valence=0.9`` during a sad bow turned a hand 1,320 deg/s in one frame; eased (by default as long as the
+    change needs, at least half a second: ``easing.ease_length``) it stays within 1.5x the bow's own fastest joint
+    (the bow alone, at either valence). Each part against its own: ``test_transitions``'s cue windows."""
     bow = [Cue(2.0, adverbs={"valence": 0.9})]
     own = max(
         _angular_speed(perform(bandai, [], seconds=3.5, start="bow", adverbs={"valence": v}, stay=True).planted.rotations).max()
