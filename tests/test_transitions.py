@@ -271,10 +271,7 @@ def test_a_foot_re_placed_after_a_stop_is_held_again(graphs):
     script, seconds, _, _ = SCRIPTS["bandai"]
     cues = [Cue(t, adverbs=v) if isinstance(v, dict) else Cue(t, v) for t, v in script]
     perf = perform(graph, cues, seconds=11.0, seed=17, adverbs=adverbs, start="idle", stay=True)
-    held = np.zeros((len(perf.verb), 2), dtype=bool)
-    for i, runs in enumerate(perf.report.phases):
-        for a, b in runs:
-            held[a:b, i] = True
+    held = _held(perf)
     stepped = ~held[int(9.75 * FPS) : int(10.1 * FPS), 1]
     assert stepped.all(), "the script should step the right foot after its stop"
     assert held[int(10.25 * FPS) : int(10.5 * FPS)].all(), np.flatnonzero(~held.all(axis=1)) / FPS
@@ -329,6 +326,15 @@ def test_a_stop_brakes_as_its_verbs_do(graphs, seed):
     assert stops, "the script should stop"
     worst = max(acc[a:b].max() for _, _, a, b in stops)
     assert worst <= 1.25 * own, f"a stop's root at {worst / own:.2f}x its verbs' own"
+
+
+def _held(perf):
+    """Whether each foot is held at each frame ``(F, L)``, from the planting report's hold phases."""
+    held = np.zeros((len(perf.verb), len(perf.report.phases)), dtype=bool)
+    for i, runs in enumerate(perf.report.phases):
+        for a, b in runs:
+            held[a:b, i] = True
+    return held
 
 
 def _root_acceleration(perf, graph):
@@ -498,8 +504,5 @@ def test_a_creature_standing_a_minute_stays_where_it_stands(graphs, seed, adverb
     turn = np.degrees(np.unwrap(np.arctan2(side[:, 2], side[:, 0])))
     assert np.ptp(hips[:, 0]) <= 0.005 and np.ptp(hips[:, 2]) <= 0.005, (np.ptp(hips[:, 0]), np.ptp(hips[:, 2]))
     assert np.ptp(turn) <= 0.5, np.ptp(turn)
-    held = np.zeros((len(perf.verb), 2), dtype=bool)
-    for i, runs in enumerate(perf.report.phases):
-        for a, b in runs:
-            held[a:b, i] = True
+    held = _held(perf)
     assert held[int(6 * FPS) :].all(), np.flatnonzero(~held[int(6 * FPS) :].all(axis=1))[:5] / FPS + 6

@@ -25,7 +25,7 @@ from ..errors import AdverbsError, AdverbsWarning
 from ..feet.measures import FootMetrics, measure_feet
 from ..feet.offline import plant_feet, report_of_modes
 from ..feet.planter import LIFTED
-from ..graph.easing import Easing, creature_ease
+from ..graph.easing import Easing
 from ..graph.performance import MAX_SECONDS, Cue, perform, repeat
 from ..graph.planted import plant, planter
 from ..graph.player import Frame, first_frame, step
@@ -240,8 +240,7 @@ def _together(graph: Graph, fps: float, creatures: list[_Creature]) -> list[tupl
                 next_cue[k] += 1
                 try:
                     if cue.adverbs:
-                        p = graph.check_point(graph.point({**dict(zip(graph.adverb_names, easing.to[k])), **cue.adverbs}))
-                        easing.set(k, state.points[k], p, now, creature_ease(graph, state, k, p, None), state.points)
+                        easing.ease_to(graph, state, k, easing.cued(graph, k, cue.adverbs), now, None)
                     if cue.verb is not None:
                         command(state, k, cue.verb)
                 except (CommandRefused, AdverbsError) as e:

@@ -49,6 +49,21 @@ class Easing:
         if over == 0.0:
             points[i] = target
 
+    def ease_to(self, graph, state, i: int, target: np.ndarray, t: float, over: float | None) -> float:
+        """Creature ``i`` of graph state ``state`` eases from the point it plays at now to ``target (A,)`` from time
+        ``t``, over ``over`` seconds, or by default (None) over :func:`ease_length` for the verbs it plays (the verb,
+        and the one it is entering); the seconds it eases over."""
+        if over is None:
+            verbs = [state.verb[i]] + ([state.into[i]] if state.active[i] >= 0 else [])
+            over = ease_length(graph, verbs, state.points[i], target)
+        self.set(i, state.points[i], target, t, float(over), state.points)
+        return float(over)
+
+    def cued(self, graph, i: int, adverbs: dict[str, float]) -> np.ndarray:
+        """The graph point a cue's ``adverbs`` ask creature ``i`` for: the ones it names, the rest where its ease is
+        going, held to the graph's range (:meth:`Graph.check_point`)."""
+        return graph.check_point(graph.point({**dict(zip(graph.adverb_names, self.to[i])), **adverbs}))
+
     def apply(self, points: np.ndarray, t: float) -> None:
         """Write into ``points (C, A)`` each easing creature's point at time ``t``; an ease that is over ends."""
         easing = np.flatnonzero(self.over > 0)
@@ -111,11 +126,3 @@ def ease_length(graph, verbs, shown: np.ndarray, target: np.ndarray) -> float:
         need = max(need, float((_PEAK * turn / (HEADROOM * np.maximum(own.max(axis=0), 1e-6))).max()))
     return float(np.clip(need, EASE, MOST_EASE))
 
-
-def creature_ease(graph, state, i: int, target: np.ndarray, over: float | None) -> float:
-    """How long creature ``i`` of a graph state eases to ``target (A,)``: ``over`` if given, else
-    :func:`ease_length` for the verbs it plays (the verb, and the one it is entering)."""
-    if over is not None:
-        return float(over)
-    verbs = [state.verb[i]] + ([state.into[i]] if state.active[i] >= 0 else [])
-    return ease_length(graph, verbs, state.points[i], target)

@@ -19,7 +19,7 @@ from ..kinematics.floor import Floor
 from ..motion.clip import Clip
 from ..feet.offline import PlantingReport, report_of_modes
 from ..verb.synthesis import MAX_FPS, plan
-from .easing import Easing, creature_ease
+from .easing import Easing
 from .planted import plant, planter
 from .player import first_frame, step
 from .queue import command
@@ -136,9 +136,7 @@ def perform(
             outcomes.append([cue.time, _words(cue), "ran"])
             try:
                 if cue.adverbs:
-                    p = graph.check_point(graph.point({**dict(zip(graph.adverb_names, easing.to[0])), **cue.adverbs}))
-                    over = creature_ease(graph, state, 0, p, ease)
-                    easing.set(0, state.points[0], p, now, over, state.points)
+                    over = easing.ease_to(graph, state, 0, easing.cued(graph, 0, cue.adverbs), now, ease)
                     eases.append((cue.time, over))
                     outcomes[-1][2] = f"adverbs set, eased over {over:.2f} s"
                 if cue.verb is not None:

@@ -223,12 +223,17 @@ class Graph:
         )  # fmt: skip
 
     @cached_property
+    def leg_chains(self):
+        """The leg chains (``ik.LegChains``) of the first verb that holds feet; None when no verb does."""
+        return next((v.leg_chains for v in self.verbs if v.constraints), None)
+
+    @cached_property
     def arms(self) -> np.ndarray:
         """The joints of the arms ``(U,)``: of the upper body (every joint neither on a leg, a held foot's hip and what
         hangs from it, nor on the way from the root to the hips), what hangs from its first joint with more than one
         child (the chest), but for the smallest of those branches (the neck and head). None in a graph whose verbs
         hold no feet or whose upper body does not branch."""
-        chains = next((v.leg_chains for v in self.verbs if v.constraints), None)
+        chains = self.leg_chains
         if chains is None:
             return np.zeros(0, dtype=np.int64)
         skeleton = self.skeleton
@@ -249,7 +254,7 @@ class Graph:
         """The body's parts, each its joints ``(n,)``: the legs (a held foot's hip and what hangs from it), the arms
         (:attr:`arms`) and the rest (the trunk, neck and head); the whole body, one part, in a graph whose verbs hold
         no feet. What an adverb change's ease is measured by (:func:`~adverbs.graph.easing.ease_length`)."""
-        chains = next((v.leg_chains for v in self.verbs if v.constraints), None)
+        chains = self.leg_chains
         n = self.skeleton.num_joints
         if chains is None:
             return (np.arange(n),)

@@ -39,7 +39,7 @@ import numpy as np
 
 from ..errors import AdverbsError, AdverbsWarning
 from ..limits import check_frames
-from ..graph.easing import Easing, creature_ease
+from ..graph.easing import Easing
 from ..graph.planted import GraphFeet, plant, planter
 from ..graph.player import step
 from ..graph.queue import command
@@ -392,9 +392,7 @@ class Simulation:
         if g.state is None:  # before the first frame: nothing shown yet to ease from
             g.points[i] = target
             return 0.0
-        over = creature_ease(graph, g.state, i, target, over)
-        g.easing.set(i, g.state.points[i], target, t, over, g.state.points)
-        return round(over, 6)
+        return round(g.easing.ease_to(graph, g.state, i, target, t, over), 6)
 
     # ----- running -----------------------------------------------------------------------------------
     def _start(self) -> None:
