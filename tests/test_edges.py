@@ -484,23 +484,48 @@ def test_a_one_shot_waiting_at_its_end_shows_its_last_pose(bandai):
 def test_the_carry_limit_at_an_examples_point_is_that_examples_own(bandai, name):
     """The limit on how fast a carried body changes its velocity is its verb's own at the creature's adverbs: the
     examples' root accelerations through their cycle blended with its weights at each generic time, at their fastest
-    (``player.carry_limits``). At an example's own point (its weight 1, the others' 0) that is the example's own
-    fastest (``Verb.root_accelerations``), to rounding; between them it is no more than the fastest of them (the
-    limit before: the examples' fastest blended, which for a reach was twice its own at the point)."""
+    (``Verb.carry_limit``, read by ``player.carry_limits`` and the compiled frame). At an example's own point (its
+    weight 1, the others' 0) that is the example's own fastest (``Verb.root_accelerations``), to rounding; between
+    them it is no more than the fastest of them (the limit before: the examples' fastest blended, which for a reach
+    was twice its own at the point); a crowd's are each creature's alone."""
     from adverbs.verb.tables import SETTLING
 
     verb = bandai.verbs[bandai.verb_index(name)]
     profile, fastest = verb.root_acceleration_profile, verb.root_accelerations
     assert profile.shape == (len(fastest), profile.shape[1], 3) and profile.shape[1] >= 64
+    assert fastest.min() >= SETTLING  # (a stand in place has none of its own)
+    weights = np.array([verb.weights(point) for point in verb.points])
+    np.testing.assert_allclose(verb.carry_limit(weights), fastest, rtol=1e-9, atol=0)
+    rng = np.random.default_rng(3)
+    points = rng.uniform(verb.points.min(axis=0), verb.points.max(axis=0), (7, verb.points.shape[1]))
+    crowd = np.array([verb.weights(p) for p in points])
+    assert np.array_equal(verb.carry_limit(crowd), [verb.carry_limit(w) for w in crowd])
+    assert verb.carry_limit(verb.weights(verb.points.mean(axis=0))) <= fastest.max() + 1e-12
 
-    def own(weights):
-        blended = np.einsum("e,esk->sk", weights[: len(fastest)], profile)
-        return float(np.max(np.hypot(blended[:, 0], blended[:, 1]) + np.maximum(blended[:, 2], 0.0)))
 
-    for e, point in enumerate(verb.points):  # (at least SETTLING: a stand in place has none of its own)
-        np.testing.assert_allclose(max(own(verb.weights(point)), SETTLING), fastest[e], rtol=1e-9, atol=1e-12)
-    middle = verb.weights(verb.points.mean(axis=0))
-    assert own(middle) <= fastest.max() + 1e-12
+def test_the_carry_limit_is_worked_out_when_the_adverbs_move_and_the_frame_reads_it(bandai):
+    """A creature's carry limits change only with its adverbs, so they are worked out then (``clocks._carry``, kept
+    beside its sampling caches), not every frame: after a change they are each verb's at the new point, the same
+    numbers the compiled frame reads from its packed caches."""
+    from adverbs.graph.clocks import _carry, _sampling
+    from adverbs.graph.planted import planter
+    from adverbs.graph.state import new_state
+    from adverbs.runtime.frame import FramePass
+
+    state = new_state(bandai, 3, 0, ["walk", "idle", "bow"])
+    fp = FramePass(state, planter(bandai, 3))
+    fp.step(1 / 30)
+    walk = bandai.verb_index("walk")
+    valence = bandai.adverb_names.index("valence")
+    before = _carry(state, walk, 0).copy()
+    state.points[1, valence] = 0.8
+    fp.step(1 / 30)
+    after = _carry(state, walk, 0)
+    verb = bandai.verbs[walk]
+    np.testing.assert_array_equal(after, verb.carry_limit(_sampling(state, walk, 0).weights))
+    assert after[1] != before[1] and after[0] == before[0]
+    tables, offsets = fp._caches
+    np.testing.assert_array_equal(tables[10][:, offsets[5][walk]], after)  # the very numbers, where the pass reads
 
 
 def test_a_standing_foot_is_re_placed_only_far_off_or_with_the_body_off_both():

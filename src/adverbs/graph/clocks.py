@@ -70,13 +70,16 @@ def _sampling(state: GraphState, v: int, slot: int) -> SamplingState:
         changed = s.update(verb, graph.verb_points(v, state.points))
         if changed:
             state.cache_version += 1
-        if changed and verb.holds:
-            times = verb.hold_times(s.weights)  # when each creature's feet land and lift
-            held = state.caches.get((key, "holds"))
-            if held is None:
-                state.caches[key, "holds"] = times
-            else:  # in place: the compiled frame holds on to the array
-                held[...] = times
+        if changed:
+            derived = {"carry": verb.carry_limit(s.weights)}  # how fast a carried body's velocity may change
+            if verb.holds:
+                derived["holds"] = verb.hold_times(s.weights)  # when each creature's feet land and lift
+            for name, value in derived.items():
+                kept = state.caches.get((key, name))
+                if kept is None:
+                    state.caches[key, name] = value
+                else:  # in place: the compiled frame holds on to the array
+                    kept[...] = value
         if state.fresh is not None:
             state.fresh.add(key)
     return s
@@ -86,6 +89,12 @@ def _hold_times(state: GraphState, v: int, slot: int) -> np.ndarray:
     """Verb ``v``'s hold times ``(C, L, 3)`` at every creature's adverbs in slot 0 (A) or 1 (B) (see :meth:`Verb.hold_times`)."""
     _sampling(state, v, slot)
     return state.caches[(v, slot), "holds"]
+
+
+def _carry(state: GraphState, v: int, slot: int) -> np.ndarray:
+    """Verb ``v``'s carry limit ``(C,)`` at every creature's adverbs in slot 0 (A) or 1 (B) (see :meth:`Verb.carry_limit`)."""
+    _sampling(state, v, slot)
+    return state.caches[(v, slot), "carry"]
 
 
 def _by_verb(verbs: np.ndarray, rows: np.ndarray) -> list[tuple[int, np.ndarray | slice]]:

@@ -69,7 +69,7 @@ from ..verb.sampling import run_kernel
 from ._blend_kernel import decay_offsets, keep_feet
 from ._time_kernel import hold_rows
 from .structure import Graph
-from .clocks import _by_verb, _clock, _generic, _hold_times, _later, _place, _rates, _sampling, blend_weight
+from .clocks import _by_verb, _carry, _clock, _generic, _hold_times, _later, _place, _rates, _sampling, blend_weight
 from .queue import _finish, _start
 from .state import _LATE, GraphState
 
@@ -458,17 +458,13 @@ def carry_limits(state: GraphState, rows: np.ndarray) -> np.ndarray:
     has none of its own), a bow at 0.6-0.8 m/s², a walk at 3-18. Carried at a walk's pace (4 m/s², the limit
     before), an interruption jumped a standing body at 2-7x its verbs' own; at the examples' fastest blended (the
     limit until session 43), a reach's start cut short turned the body at 0.32 m/s², the reach's own at its adverbs
-    0.15."""
+    0.15. Each verb's is worked out when the creature's adverbs move (``Verb.carry_limit``, ``clocks._carry``): it
+    depends on nothing else, and the compiled frame read its 64 generic times and every example every frame."""
     out = np.zeros(len(rows))
     for slot, verbs in ((0, state.verb[rows]), (1, state.into[rows])):
         for v in np.unique(verbs[verbs >= 0]):
             mine = verbs == v
-            verb = state.graph.verbs[v]
-            acc, profile = verb.root_accelerations, verb.root_acceleration_profile
-            w = _sampling(state, int(v), slot).weights[rows[mine], : len(acc)]
-            blended = np.einsum("ne,esk->nsk", w, profile)
-            own = np.max(np.hypot(blended[..., 0], blended[..., 1]) + np.maximum(blended[..., 2], 0.0), axis=1)
-            out[mine] = np.maximum(out[mine], np.clip(own, acc.min(), acc.max()))
+            out[mine] = np.maximum(out[mine], _carry(state, int(v), slot)[rows[mine]])
     return out
 
 

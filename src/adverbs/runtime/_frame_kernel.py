@@ -26,19 +26,17 @@ Arguments come in tuples (``frame.FramePass`` lays them out once):
   ``reference (V, J, 4)``, ``translated``, ``base (V, J, 3)``, ``body (V,)``, ``has_parent (V,)``, ``parent_inv
   (V, 4)``, ``parent_pos (V, 3)``), the holds (``opens``, ``cols`` in the graph's feet, ``has_holds (V,)``) and
   the examples' foot lifts (``Verb.lift_table`` ``(3, E, S + 1, L)``: flat, offsets, shapes ``(V, 3)`` of
-  ``(E, S + 1, L)``), the examples' fastest root accelerations (``Verb.root_accelerations`` ``(E,)``: flat,
-  offsets) and their root accelerations through their cycle (``Verb.root_acceleration_profile`` ``(E, S, 3)``: flat,
-  offsets).
+  ``(E, S + 1, L)``).
 * ``transitions``: ``regions (T, 4)`` (source start and end, target start and end), ``target (T,)``,
   ``inertial (T,)``, ``between (T,)`` (from one verb to another), ``arms (T,)`` (how it carries the arms on:
   ``Graph.carries_arms``).
 * ``skeleton``: ``parents (J,)``, the graph's feet ``(L,)``, the inverse rest rotation above the body root ``(4,)``,
   the body root, the arms' joints ``(U,)`` (``Graph.arms``).
-* ``caches = (tables, offsets)``: each creature's ``weights``, ``keytimes``, ``seam``, ``goal`` and hold times of
-  every verb, one ``(C, Σ)`` table per kind and slot (slot 0 the verb playing, 1 the one being entered: ``tables =
-  (W0, W1, K0, K1, S0, S1, G0, G1, H0, H1)``), verb ``v``'s columns given by ``offsets`` (one array per kind). The verbs'
-  :class:`~adverbs.verb.sampling.SamplingState` rows are views of these tables, so the reference path and the
-  pass read and write the same numbers.
+* ``caches = (tables, offsets)``: each creature's ``weights``, ``keytimes``, ``seam``, ``goal``, hold times and
+  carry limit (``Verb.carry_limit``) of every verb, one ``(C, Σ)`` table per kind and slot (slot 0 the verb playing,
+  1 the one being entered: ``tables = (W0, W1, K0, K1, S0, S1, G0, G1, H0, H1, L0, L1)``), verb ``v``'s columns
+  given by ``offsets`` (one array per kind). The verbs' :class:`~adverbs.verb.sampling.SamplingState` rows are views
+  of these tables, so the reference path and the pass read and write the same numbers.
 * ``state``: :class:`~adverbs.graph.state.GraphState`'s arrays, updated in place.
 """
 
@@ -89,8 +87,8 @@ def _generic_keys(verbs, v):  # pragma: no cover - compiled
 
 @njit(cache=True, inline="always")
 def _columns(caches, slot, v, which):  # pragma: no cover - compiled
-    """Verb ``v``'s columns ``(C, ·)`` of cache ``which`` (0 weights, 1 keytimes, 2 seam, 3 goal, 4 hold times) in
-    ``slot``."""
+    """Verb ``v``'s columns ``(C, ·)`` of cache ``which`` (0 weights, 1 keytimes, 2 seam, 3 goal, 4 hold times, 5 carry
+    limit) in ``slot``."""
     off = caches[1][which]
     return caches[0][2 * which + slot][:, off[v] : off[v + 1]]
 
@@ -370,32 +368,13 @@ def _phases(v, slot, c, g, verbs, caches, held, roll, swing, lifts):  # pragma: 
 
 @njit(cache=True, inline="always")
 def _carry_limit(c, verbs, caches, state):  # pragma: no cover - compiled
-    """``player.carry_limits`` of creature ``c``: its verbs' examples' root accelerations through their cycle blended
-    with its weights at each generic time, at their fastest (within the examples' fastest), the larger of the verb
-    playing's and the one being entered's."""
+    """``player.carry_limits`` of creature ``c``: the larger of its verbs' own fastest root accelerations at its
+    adverbs (``Verb.carry_limit``, worked out when they move), the verb playing's and the one being entered's."""
     out = 0.0
     for slot in range(2):
         v = state[0][c] if slot == 0 else state[2][c]
-        if v < 0:
-            continue
-        acc = _part(verbs[27], verbs[28], v)
-        profile = _part(verbs[29], verbs[30], v)
-        w = _columns(caches, slot, v, 0)[c]
-        n_e = acc.shape[0]
-        n_s = profile.shape[0] // (3 * n_e)
-        lo, hi = np.inf, -np.inf
-        for e in range(n_e):
-            lo, hi = min(lo, acc[e]), max(hi, acc[e])
-        own = 0.0
-        for s in range(n_s):
-            ax, az, turn = 0.0, 0.0, 0.0
-            for e in range(n_e):
-                k = 3 * (e * n_s + s)
-                ax += w[e] * profile[k]
-                az += w[e] * profile[k + 1]
-                turn += w[e] * profile[k + 2]
-            own = max(own, math.hypot(ax, az) + max(turn, 0.0))
-        out = max(out, min(max(own, lo), hi))
+        if v >= 0:
+            out = max(out, _columns(caches, slot, v, 5)[c, 0])
     return out
 
 

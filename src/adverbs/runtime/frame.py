@@ -109,8 +109,6 @@ def tables(graph: Graph) -> Tables:
         np.array([bool(v.holds) for v in vs], dtype=np.bool_),
         *packed([v.lift_table if v.holds and v.cyclic else np.zeros(0) for v in vs]),
         np.array([v.lift_table.shape[1:] if v.holds and v.cyclic else (0, 2, 0) for v in vs], dtype=np.int64),
-        *packed([v.root_accelerations for v in vs]),
-        *packed([v.root_acceleration_profile for v in vs]),
     )  # fmt: skip
     ts = graph.transitions
     transitions = (
@@ -210,6 +208,7 @@ class FramePass:
             [v.num_dofs for v in graph.verbs],
             [0 if v.goal is None else len(v.goal.columns) for v in graph.verbs],
             [3 * len(v.holds) for v in graph.verbs],
+            [1 for _ in graph.verbs],  # the carry limit (Verb.carry_limit)
         ]
         offsets = tuple(np.concatenate([[0], np.cumsum(w)]).astype(np.int64) for w in widths)
         tables = tuple(np.zeros((c, int(off[-1]))) for off in offsets for _ in (0, 1))
@@ -217,15 +216,17 @@ class FramePass:
             for slot in (0, 1):
                 views = [tables[2 * kind + slot][:, off[v] : off[v + 1]] for kind, off in enumerate(offsets)]
                 held = views[4].reshape(c, len(verb.holds), 3)  # a view still: its rows' columns are contiguous
+                carry = views[5][:, 0]
                 old = state.caches.get((v, slot))
                 new = SamplingState.new(verb, c) if old is None else dataclasses.replace(old)
                 for name, view in zip(("weights", "keytimes", "seam", "goal"), views):
                     view[...] = getattr(new, name)
                     setattr(new, name, view)
-                if old is not None and state.caches.get(((v, slot), "holds")) is not None:
-                    held[...] = state.caches[(v, slot), "holds"]
                 state.caches[v, slot] = new
-                state.caches[(v, slot), "holds"] = held
+                for name, view in (("holds", held), ("carry", carry)):
+                    if old is not None and state.caches.get(((v, slot), name)) is not None:
+                        view[...] = state.caches[(v, slot), name]
+                    state.caches[(v, slot), name] = view
         self._bring_up_to_date()
         self._version = state.cache_version
         return tables, offsets

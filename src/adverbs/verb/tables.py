@@ -355,6 +355,18 @@ class Verb:
         p = self.root_acceleration_profile
         return _frozen(np.maximum(np.max(np.hypot(p[..., 0], p[..., 1]) + p[..., 2], axis=1), SETTLING))
 
+    def carry_limit(self, weights: np.ndarray) -> np.ndarray:
+        """The verb's own fastest root acceleration ``(...,)`` at cardinal ``weights (..., E)``: its examples'
+        :attr:`root_acceleration_profile` blended with the weights at each generic time, at its fastest, kept within
+        the examples' fastest (:attr:`root_accelerations`). What a carried body's velocity may change by in a second
+        (:func:`adverbs.graph.player.carry_limits`); it changes only with the weights, so a graph works it out when
+        a creature's adverbs move (``clocks._carry``), not every frame."""
+        acc, profile = self.root_accelerations, self.root_acceleration_profile
+        w = np.asarray(weights, dtype=float)[..., : len(acc)]
+        blended = np.einsum("...e,esk->...sk", w, profile)  # einsum's own loop: the same bits alone or in a crowd
+        own = np.max(np.hypot(blended[..., 0], blended[..., 1]) + np.maximum(blended[..., 2], 0.0), axis=-1)
+        return np.clip(own, acc.min(), acc.max())
+
     def point(self, values: dict[str, float] | Sequence[float] | np.ndarray) -> np.ndarray:
         """An adverb point ``(A,)`` from a mapping of adverb names (missing ones: the examples' mean) or a sequence."""
         if isinstance(values, dict):
