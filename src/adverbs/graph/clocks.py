@@ -71,15 +71,18 @@ def _sampling(state: GraphState, v: int, slot: int) -> SamplingState:
         if changed:
             state.cache_version += 1
         if changed:
-            derived = {"carry": verb.carry_limit(s.weights)}  # how fast a carried body's velocity may change
-            if verb.holds:
-                derived["holds"] = verb.hold_times(s.weights)  # when each creature's feet land and lift
-            for name, value in derived.items():
-                kept = state.caches.get((key, name))
-                if kept is None:
-                    state.caches[key, name] = value
-                else:  # in place: the compiled frame holds on to the array
-                    kept[...] = value
+            carry = state.caches.get((key, "carry"))  # (in place: the compiled frame holds on to these arrays)
+            if carry is None:
+                state.caches[key, "carry"] = np.full(state.creatures, np.nan)
+            else:  # worked out again where a frame needs it (player.carry_limits)
+                carry[...] = np.nan
+        if changed and verb.holds:
+            times = verb.hold_times(s.weights)  # when each creature's feet land and lift
+            held = state.caches.get((key, "holds"))
+            if held is None:
+                state.caches[key, "holds"] = times
+            else:
+                held[...] = times
         if state.fresh is not None:
             state.fresh.add(key)
     return s
@@ -91,10 +94,16 @@ def _hold_times(state: GraphState, v: int, slot: int) -> np.ndarray:
     return state.caches[(v, slot), "holds"]
 
 
-def _carry(state: GraphState, v: int, slot: int) -> np.ndarray:
-    """Verb ``v``'s carry limit ``(C,)`` at every creature's adverbs in slot 0 (A) or 1 (B) (see :meth:`Verb.carry_limit`)."""
-    _sampling(state, v, slot)
-    return state.caches[(v, slot), "carry"]
+def _carry(state: GraphState, v: int, slot: int, rows: np.ndarray) -> np.ndarray:
+    """Verb ``v``'s carry limit ``(n,)`` at the adverbs of creatures ``rows`` in slot 0 (A) or 1 (B) (see
+    :meth:`Verb.carry_limit`): kept, NaN since a creature's adverbs last moved until a frame needs it, then worked
+    out and kept (here, or by the compiled frame)."""
+    s = _sampling(state, v, slot)
+    kept = state.caches[(v, slot), "carry"]
+    todo = rows[np.isnan(kept[rows])]
+    if len(todo):
+        kept[todo] = state.graph.verbs[v].carry_limit(s.weights[todo])
+    return kept[rows]
 
 
 def _by_verb(verbs: np.ndarray, rows: np.ndarray) -> list[tuple[int, np.ndarray | slice]]:

@@ -458,13 +458,13 @@ def carry_limits(state: GraphState, rows: np.ndarray) -> np.ndarray:
     has none of its own), a bow at 0.6-0.8 m/s², a walk at 3-18. Carried at a walk's pace (4 m/s², the limit
     before), an interruption jumped a standing body at 2-7x its verbs' own; at the examples' fastest blended (the
     limit until session 43), a reach's start cut short turned the body at 0.32 m/s², the reach's own at its adverbs
-    0.15. Each verb's is worked out when the creature's adverbs move (``Verb.carry_limit``, ``clocks._carry``): it
-    depends on nothing else, and the compiled frame read its 64 generic times and every example every frame."""
+    0.15. It depends on the adverbs alone, so each verb's is kept once worked out (``Verb.carry_limit``,
+    ``clocks._carry``) until they move: the compiled frame blended its 64 generic times of every example every frame."""
     out = np.zeros(len(rows))
     for slot, verbs in ((0, state.verb[rows]), (1, state.into[rows])):
         for v in np.unique(verbs[verbs >= 0]):
             mine = verbs == v
-            out[mine] = np.maximum(out[mine], _carry(state, int(v), slot)[rows[mine]])
+            out[mine] = np.maximum(out[mine], _carry(state, int(v), slot, rows[mine]))
     return out
 
 

@@ -26,7 +26,9 @@ Arguments come in tuples (``frame.FramePass`` lays them out once):
   ``reference (V, J, 4)``, ``translated``, ``base (V, J, 3)``, ``body (V,)``, ``has_parent (V,)``, ``parent_inv
   (V, 4)``, ``parent_pos (V, 3)``), the holds (``opens``, ``cols`` in the graph's feet, ``has_holds (V,)``) and
   the examples' foot lifts (``Verb.lift_table`` ``(3, E, S + 1, L)``: flat, offsets, shapes ``(V, 3)`` of
-  ``(E, S + 1, L)``).
+  ``(E, S + 1, L)``), the examples' fastest root accelerations (``Verb.root_accelerations`` ``(E,)``: flat,
+  offsets) and their root accelerations through their cycle (``Verb.root_acceleration_profile`` ``(E, S, 3)``: flat,
+  offsets).
 * ``transitions``: ``regions (T, 4)`` (source start and end, target start and end), ``target (T,)``,
   ``inertial (T,)``, ``between (T,)`` (from one verb to another), ``arms (T,)`` (how it carries the arms on:
   ``Graph.carries_arms``).
@@ -369,12 +371,36 @@ def _phases(v, slot, c, g, verbs, caches, held, roll, swing, lifts):  # pragma: 
 @njit(cache=True, inline="always")
 def _carry_limit(c, verbs, caches, state):  # pragma: no cover - compiled
     """``player.carry_limits`` of creature ``c``: the larger of its verbs' own fastest root accelerations at its
-    adverbs (``Verb.carry_limit``, worked out when they move), the verb playing's and the one being entered's."""
+    adverbs, the verb playing's and the one being entered's. Each is kept in the carry cache (``clocks._carry``),
+    NaN since the adverbs last moved until a frame needs it: then its examples' root accelerations through their
+    cycle blended with its weights at each generic time, at their fastest, within the examples' fastest
+    (``Verb.carry_limit``), worked out here and kept."""
     out = 0.0
     for slot in range(2):
         v = state[0][c] if slot == 0 else state[2][c]
-        if v >= 0:
-            out = max(out, _columns(caches, slot, v, 5)[c, 0])
+        if v < 0:
+            continue
+        kept = _columns(caches, slot, v, 5)
+        if math.isnan(kept[c, 0]):
+            acc = _part(verbs[27], verbs[28], v)
+            profile = _part(verbs[29], verbs[30], v)
+            w = _columns(caches, slot, v, 0)[c]
+            n_e = acc.shape[0]
+            n_s = profile.shape[0] // (3 * n_e)
+            lo, hi = np.inf, -np.inf
+            for e in range(n_e):
+                lo, hi = min(lo, acc[e]), max(hi, acc[e])
+            own = 0.0
+            for s in range(n_s):
+                ax, az, turn = 0.0, 0.0, 0.0
+                for e in range(n_e):
+                    k = 3 * (e * n_s + s)
+                    ax += w[e] * profile[k]
+                    az += w[e] * profile[k + 1]
+                    turn += w[e] * profile[k + 2]
+                own = max(own, math.hypot(ax, az) + max(turn, 0.0))
+            kept[c, 0] = min(max(own, lo), hi)
+        out = max(out, kept[c, 0])
     return out
 
 

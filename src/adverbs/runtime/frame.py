@@ -109,6 +109,8 @@ def tables(graph: Graph) -> Tables:
         np.array([bool(v.holds) for v in vs], dtype=np.bool_),
         *packed([v.lift_table if v.holds and v.cyclic else np.zeros(0) for v in vs]),
         np.array([v.lift_table.shape[1:] if v.holds and v.cyclic else (0, 2, 0) for v in vs], dtype=np.int64),
+        *packed([v.root_accelerations for v in vs]),
+        *packed([v.root_acceleration_profile for v in vs]),
     )  # fmt: skip
     ts = graph.transitions
     transitions = (
@@ -217,6 +219,7 @@ class FramePass:
                 views = [tables[2 * kind + slot][:, off[v] : off[v + 1]] for kind, off in enumerate(offsets)]
                 held = views[4].reshape(c, len(verb.holds), 3)  # a view still: its rows' columns are contiguous
                 carry = views[5][:, 0]
+                carry[...] = np.nan  # not worked out yet (clocks._carry)
                 old = state.caches.get((v, slot))
                 new = SamplingState.new(verb, c) if old is None else dataclasses.replace(old)
                 for name, view in zip(("weights", "keytimes", "seam", "goal"), views):

@@ -359,8 +359,8 @@ class Verb:
         """The verb's own fastest root acceleration ``(...,)`` at cardinal ``weights (..., E)``: its examples'
         :attr:`root_acceleration_profile` blended with the weights at each generic time, at its fastest, kept within
         the examples' fastest (:attr:`root_accelerations`). What a carried body's velocity may change by in a second
-        (:func:`adverbs.graph.player.carry_limits`); it changes only with the weights, so a graph works it out when
-        a creature's adverbs move (``clocks._carry``), not every frame."""
+        (:func:`adverbs.graph.player.carry_limits`); it changes only with the weights, so a graph keeps each
+        creature's once worked out, until its adverbs move (``clocks._carry``)."""
         acc, profile = self.root_accelerations, self.root_acceleration_profile
         w = np.asarray(weights, dtype=float)[..., : len(acc)]
         blended = np.einsum("...e,esk->...sk", w, profile)  # einsum's own loop: the same bits alone or in a crowd
