@@ -68,13 +68,12 @@ def _sampling(state: GraphState, v: int, slot: int) -> SamplingState:
         s = state.caches[key] = SamplingState.new(verb, state.creatures)
     if state.fresh is None or key not in state.fresh:  # within a step the adverbs hold still: once is enough
         changed = s.update(verb, graph.verb_points(v, state.points))
-        if changed:
+        if changed:  # (what is kept beside the weights, in place: the compiled frame holds on to the arrays)
             state.cache_version += 1
-        if changed:
-            carry = state.caches.get((key, "carry"))  # (in place: the compiled frame holds on to these arrays)
+            carry = state.caches.get((key, "carry"))
             if carry is None:
                 state.caches[key, "carry"] = np.full(state.creatures, np.nan)
-            else:  # worked out again where a frame needs it (player.carry_limits)
+            else:  # worked out again where a frame needs it (_carry)
                 carry[...] = np.nan
         if changed and verb.holds:
             times = verb.hold_times(s.weights)  # when each creature's feet land and lift
