@@ -603,7 +603,7 @@ def test_the_compiled_blend_bookkeeping_is_the_numpy_one(bandai):
     fade = rng.uniform(0.2, 1.0, n)  # under a decaying offset: the part of the slip left to carry the body
     fade[0] = 1.0
     keep_feet(graph.skeleton.parents, tips, rows, w, rot, got_trans, shown_rot, shown_trans, shown_vel, body,
-              graph.inverse_above_body, got_root, root, *free, fade, DT)  # fmt: skip
+              graph.inverse_above_body, got_root, root, *free, fade, DT, np.ones(n, dtype=bool))  # fmt: skip
     now = forward_kinematics(graph.skeleton.parents, rot[rows], trans[rows])[0][:, tips]
     was = forward_kinematics(graph.skeleton.parents, shown_rot[rows], shown_trans[rows])[0][:, tips]
     keep = w.sum(axis=1) > 0
@@ -624,7 +624,8 @@ def test_the_compiled_blend_bookkeeping_is_the_numpy_one(bandai):
     speed = rng.uniform(0.5, 3.0, n)
     held_root, held_trans = root.copy(), np.array(trans)
     keep_feet(graph.skeleton.parents, tips, rows, w, rot, held_trans, shown_rot, shown_trans, shown_vel, body,
-              graph.inverse_above_body, held_root, prev, speed, speed, np.full(n, np.inf), np.ones(n), DT)  # fmt: skip
+              graph.inverse_above_body, held_root, prev, speed, speed, np.full(n, np.inf), np.ones(n), DT,
+              np.ones(n, dtype=bool))  # fmt: skip
     step = held_root[rows, :2] - prev[rows, :2]
     np.testing.assert_allclose(np.hypot(*step.T), speed * DT, rtol=1e-12, atol=0)
     advance = root[rows, :2] - prev[rows, :2]
@@ -637,11 +638,15 @@ def test_the_compiled_blend_bookkeeping_is_the_numpy_one(bandai):
     # its step ending at the heading the root has): the slip's step where it is within, else the nearest within.
     change = np.array([0.5, 4.0, 1e3, 4.0, 40.0, 0.0])
     limited_root, limited_trans = root.copy(), np.array(trans)
+    held_back = np.zeros(n, dtype=bool)
     keep_feet(graph.skeleton.parents, tips, rows, w, rot, limited_trans, shown_rot, shown_trans, shown_vel, body,
-              graph.inverse_above_body, limited_root, root, np.zeros(n), np.full(n, np.inf), change, np.ones(n), DT)  # fmt: skip
+              graph.inverse_above_body, limited_root, root, np.zeros(n), np.full(n, np.inf), change, np.ones(n), DT,
+              held_back)  # fmt: skip
     free_root = root.copy()
+    free_back = np.ones(n, dtype=bool)
     keep_feet(graph.skeleton.parents, tips, rows, w, rot, np.array(trans), shown_rot, shown_trans, shown_vel, body,
-              graph.inverse_above_body, free_root, root, *free, np.ones(n), DT)  # fmt: skip
+              graph.inverse_above_body, free_root, root, *free, np.ones(n), DT, free_back)  # fmt: skip
+    assert not free_back.any()  # no limit: nothing held back
     mid = root[rows, 2] - 0.5 * shown_vel[rows, 2] * DT
     before = quat.rotate(quat.about_y(mid), np.stack([shown_vel[rows, 0], np.zeros(n), shown_vel[rows, 1]], axis=1))
     for i, c_ in enumerate(rows):
@@ -650,6 +655,7 @@ def test_the_compiled_blend_bookkeeping_is_the_numpy_one(bandai):
         wanted = (free_root[c_, :2] - root[c_, :2]) / DT
         got = (limited_root[c_, :2] - root[c_, :2]) / DT
         gap = np.hypot(*(wanted - before[i, [0, 2]]))
+        assert held_back[i] == (gap > change[i] * DT), (i, gap, change[i] * DT)  # whether the limit held it back
         if gap <= change[i] * DT:
             np.testing.assert_allclose(got, wanted, rtol=0, atol=1e-12)
         else:

@@ -21,19 +21,20 @@ from ..feet._planting_scalars import spring
 
 @njit(cache=True)
 def keep_feet(parents, tips, rows, weights, rot, trans, shown_rot, shown_trans, shown_vel, body, above_inv, root, prev,
-              lo, hi, change, fade, dt):  # pragma: no cover  # fmt: skip
+              lo, hi, change, fade, dt, held_back):  # pragma: no cover  # fmt: skip
     """For each creature ``rows[i]`` with foot weights ``weights[i] (L,)`` (unless they sum to zero): the weighted mean
     horizontal slip ``was − now`` of its feet ``tips (L,)`` between the pose shown before (``shown_rot``,
     ``shown_trans``) and this one (``rot``, ``trans``), added to its ``root (C, 3)`` = ``(x, z, heading)`` and, in
     the frame above the body root (``above_inv``, the inverse of its rest rotation), to the body root's translation;
     the root's velocity held within ``change[i]`` m/s² of the one shown, ``shown_vel (C, 3)``, and its step from
-    ``prev (C, 3)`` to ``lo[i]`` to ``hi[i]`` m/s, the slip scaled by ``fade[i]`` (see :func:`keep_feet_row`)."""
+    ``prev (C, 3)`` to ``lo[i]`` to ``hi[i]`` m/s, the slip scaled by ``fade[i]`` (see :func:`keep_feet_row`);
+    ``held_back[i]``: whether ``change[i]`` held its velocity back."""
     n_j = parents.shape[0]
     now_pos, now_rot = np.empty((1, n_j, 3)), np.empty((1, n_j, 4))
     was_pos, was_rot = np.empty((1, n_j, 3)), np.empty((1, n_j, 4))
     for i in range(rows.shape[0]):
         c = rows[i]
-        keep_feet_row(
+        held_back[i] = keep_feet_row(
             parents, tips, weights[i], rot[c : c + 1], trans[c : c + 1], shown_rot[c : c + 1], shown_trans[c : c + 1],
             body, above_inv, root[c], now_pos, now_rot, was_pos, was_rot, prev[c, 0], prev[c, 1], prev[c, 2],
             shown_vel[c, 0], shown_vel[c, 1], shown_vel[c, 2], lo[i], hi[i], change[i], fade[i], dt,
@@ -55,7 +56,7 @@ def keep_feet_row(parents, tips, weights, rot, trans, shown_rot, shown_trans, bo
     places under the body, a run braked nearly to a standstill on its way into a walk, and a start threw the body
     past the walk's speed. The legs take up the rest (the planter holds the feet, and re-places one left behind).
     ``fade``: how much of the slip carries the body (1 in a cosine blend; under a decaying offset, as much as is left
-    of it).
+    of it). Returns whether ``change`` held the velocity back (the body lags the velocity it was carried to).
     """
     total = 0.0
     for k in range(tips.shape[0]):
@@ -91,6 +92,7 @@ def keep_feet_row(parents, tips, weights, rot, trans, shown_rot, shown_trans, bo
         sx, sz = x0 + dx - root[0], z0 + dz - root[1]
     # Last, and whether or not a foot is held: a carry that ends (its feet let go, re-placed) does not jump the body
     # back to its own velocity in one frame, nor the speed floor reverse it.
+    held_back = False
     if math.isfinite(change):  # the velocity shown before, in the world: its step's heading halfway
         px, _, pz = _rotate_about_y(h0 - 0.5 * sturn * dt, svx, 0.0, svz)
         ex, ez = dx - px * dt, dz - pz * dt
@@ -99,8 +101,9 @@ def keep_feet_row(parents, tips, weights, rot, trans, shown_rot, shown_trans, bo
             k = change * dt * dt / e
             dx, dz = px * dt + ex * k, pz * dt + ez * k
             sx, sz = x0 + dx - root[0], z0 + dz - root[1]
+            held_back = True
     if sx == 0.0 and sz == 0.0:
-        return
+        return held_back
     root[0] += sx
     root[1] += sz
     x, y, z, w = above_inv[0], above_inv[1], above_inv[2], above_inv[3]
@@ -110,6 +113,7 @@ def keep_feet_row(parents, tips, weights, rot, trans, shown_rot, shown_trans, bo
     trans[0, body, 0] += sx + w * tx + y * tz - z * ty
     trans[0, body, 1] += 0.0 + w * ty + z * tx - x * tz
     trans[0, body, 2] += sz + w * tz + x * ty - y * tx
+    return held_back
 
 
 @njit(cache=True)

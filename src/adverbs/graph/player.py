@@ -494,32 +494,37 @@ def _keep_feet(
         return root
     cosine = _cosine(state)
     blending = offset | cosine
-    if not blending.any():
+    lagging = state.lagging & ~blending
+    if not (blending.any() or lagging.any()):
         return root
-    rows = np.flatnonzero(blending)
-    cosine = cosine[rows]
-    w = np.ascontiguousarray((held & state.held_before)[rows] * (1.0 - roll[rows]))
+    rows = np.flatnonzero(blending | lagging)
+    cosine, alone = cosine[rows], lagging[rows]
+    w = np.ascontiguousarray((held & state.held_before)[rows] * (1.0 - roll[rows]) * ~alone[:, None])
     graph = state.graph
     root = root.copy()
     # Under a decaying offset alone, the slip carries the body as much as the offset is left (the spring's weight): the
     # carry ends with the offset, not at once when it is over (a bow whose valence eased under it drifted 0.1 m/s,
     # then stopped in one frame: 4 m/s², its own 0.4).
-    fade = np.where(cosine, 1.0, _spring(1.0, 0.0, state.offset_since[rows], state.offset_halflife[rows]))
+    fade = np.where(cosine | alone, 1.0, _spring(1.0, 0.0, state.offset_since[rows], state.offset_halflife[rows]))
     # ... and its velocity changes from the one shown no faster than its verbs' own allow (carry_limits): a cosine
     # blend had held the body to its speed while the slip ran ahead, and a command that cut it short let the whole
     # slip carry it at once (a start cut short two frames in went from 0.07 to 0.37 m/s in a frame, 13 m/s²).
     change = np.full(len(rows), np.inf)
     # So does a cosine blend into a one-shot (a stop, a gesture): a stop held to the blend's speed alone braked at
     # 7-11 m/s² where the walk's own is 4-6, and a gesture entered from a stand still carrying the stop's last speed
-    # dropped it in a frame (its own 0.15 m/s²). A blend from one cycle into another keeps to the blend's speed: held
-    # back, a CMU walk → run of 0.17 s left the run's speed to be taken up in one frame once it ended (21 m/s²).
-    limited = ~cosine | ~graph.cyclic[state.into[rows]]
-    change[limited] = carry_limits(state, rows[limited])
+    # dropped it in a frame (its own 0.15 m/s²). So does a blend from one cycle into another, and a body it left
+    # behind the verb's velocity (``lagging``) catches up alone at that rate: a CMU walk → run of 0.17 s took the
+    # body from 1.3 to 3.0 m/s at 16.5 m/s² (the run's own 8), and held back within the blend alone it took up the
+    # rest in one frame once the blend ended (21 m/s²).
+    change = carry_limits(state, rows)
+    held_back = np.zeros(len(rows), dtype=bool)
     keep_feet(
         graph.skeleton.parents, graph.feet_array, rows, w, rot, trans, state.shown[0], state.shown[1],
         np.ascontiguousarray(state.shown[2]), graph.verbs[0].encoding.body_root, graph.inverse_above_body, root,
-        state.root, speed[rows], np.where(cosine, speed[rows], np.inf), change, fade, dt,
+        state.root, np.where(alone, 0.0, speed[rows]), np.where(cosine, speed[rows], np.inf), change, fade, dt, held_back,
     )  # fmt: skip
+    state.lagging[:] = False
+    state.lagging[rows] = held_back
     return root
 
 

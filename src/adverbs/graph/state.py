@@ -86,6 +86,7 @@ class GraphState:
     standing: np.ndarray | None = None  # (C,) the verb playing alone, or the one entered, is a one-shot: planted.plant
     stay: np.ndarray | None = None
     held_before: np.ndarray | None = None
+    lagging: np.ndarray | None = None  # (C,) the body's velocity held back by its carry limit last frame (player._keep_feet)
     moving: np.ndarray | None = None
     fresh: set | None = None
     regions_seen: dict | None = None
@@ -139,6 +140,7 @@ def new_state(
         np.zeros((c, 3)), np.full(c, 1e9), np.full(c, INTERRUPT_HALFLIFE),
     )  # fmt: skip
     state.inertial = np.zeros(c, dtype=bool)
+    state.lagging = np.zeros(c, dtype=bool)
     state.arms_rot, state.arms_vel = np.zeros((c, len(graph.arms), 3)), np.zeros((c, len(graph.arms), 3))
     state.arms_since, state.arms_of = np.full(c, np.inf), np.full(c, -1, dtype=np.int64)
     state.arms_take, state.arms_length = np.zeros(c, dtype=bool), np.full(c, ARMS_BLEND)

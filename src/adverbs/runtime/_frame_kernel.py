@@ -544,21 +544,22 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
     # The body carried by the held feet's slip in a blend (player._keep_feet).
     root[c, 0], root[c, 1], root[c, 2] = x1, z1, h1
     if has_shown and has_held_before:
-        if live or cosine:
+        lagging = state[27]
+        if live or cosine or lagging[c]:
+            alone = not (live or cosine)  # catching up with its verb's velocity, the carry limit's rate
             for i in range(feet.shape[0]):
-                wts[i] = (1.0 if (held[c, i] and held_before[c, i]) else 0.0) * (1.0 - roll[c, i])
+                wts[i] = 0.0 if alone else (1.0 if (held[c, i] and held_before[c, i]) else 0.0) * (1.0 - roll[c, i])
             # At the speed of the step's start: in a cosine blend the blend of the verbs' own velocities, else at
-            # least the root's own (player._step, player._speeds).
-            lo, hi, change = step_speed, np.inf, np.inf
+            # least the root's own (player._step, player._speeds); its velocity changing no faster than its verbs'
+            # own (player._keep_feet).
+            lo, hi = (0.0 if alone else step_speed), np.inf
             fade = 1.0  # under a decaying offset alone, as much of the slip as is left of the offset (player._keep_feet)
             if cosine:
                 hi = step_speed
-                if not verbs[5][into[c]]:  # into a one-shot: its velocity changing no faster than its verbs' own
-                    change = _carry_limit(c, verbs, caches, state)
-            else:
-                change = _carry_limit(c, verbs, caches, state)
+            elif not alone:
                 fade = spring(1.0, 0.0, offset_since[c], offset_halflife[c], k_[_LN2])
-            keep_feet_row(
+            change = _carry_limit(c, verbs, caches, state)
+            lagging[c] = keep_feet_row(
                 parents, feet, wts, rot[c : c + 1], trans[c : c + 1], shown_rot[c : c + 1], shown_trans[c : c + 1], body,
                 above_inv, root[c], fk_now_pos, fk_now_rot, fk_was_pos, fk_was_rot, x0, z0, h0, shown_vel[c, 0],
                 shown_vel[c, 1], shown_vel[c, 2], lo, hi, change, fade, dt,
