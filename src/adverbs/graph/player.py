@@ -538,8 +538,11 @@ def hold_phases(state: GraphState) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
     adverbs); a verb without a hold on that foot never holds it. In a cosine blend a foot is held where A holds it
     and B does too, or A still has the weight (``α ≥ 0.5``): a start's first foot stays down until the walk has the
     weight, then lifts, instead of being drawn backwards along the floor; a stop's swinging foot stays free until
-    the walk itself lands it. A foot both hold has rolled as far as the further of the two (else the roll of the
-    verb with the weight). A free foot keeps the swing lift of the verb that swings it (both: the lesser, as the
+    the walk itself lands it. A foot held has rolled as far as the further of the two, each as far as it has the
+    weight (``max(α r_A, (1 − α) r_B)``), so that it rolls with the pose's blend: counted whole, a start whose walk
+    already rolled the trailing foot 0.88 rolled it so in a frame, back to flat when the walk lifted it while the
+    stand still had the weight, then to 1 when the walk took it (a Bandai foot held 35° from the stand's, turned
+    30° a frame three times); else the roll of the verb with the weight. A free foot keeps the swing lift of the verb that swings it (both: the lesser, as the
     verb that lands it sooner puts it down; a foot both hold, the greater, as the one rolling it off lifts it), so a
     blend with a verb standing on that foot does not draw the swing down to the floor: a stop's swinging foot swings
     as the walk's does and lands as it lands. A foot B takes from A's swing as A begins to land it (``LANDS``) has
@@ -578,7 +581,8 @@ def hold_phases(state: GraphState) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
     major = (ha & (hb | first)) | taken
     both = ha & hb
     held = np.where(alone[:, None], ha, np.where(inertial[:, None], hb, major))
-    roll = np.where(alone[:, None], ra, np.where(inertial[:, None], rb, np.where(both, np.maximum(ra, rb), np.where(first, ra, rb))))
+    rolls = np.maximum(alpha * ra, (1.0 - alpha) * rb)
+    roll = np.where(alone[:, None], ra, np.where(inertial[:, None], rb, np.where(ha & (hb | first), rolls, np.where(first, ra, rb))))
     # The lift of the verb swinging it; of the one rolling it off, where both hold it (the planter lets such a foot go
     # as the verb lifts its ball): a stop begun as the walk rolled a foot off took the stand's none, and the foot
     # dropped to the floor for a frame while the walk carried it on.
