@@ -679,8 +679,8 @@ def test_a_foot_held_through_a_start_rolls_with_the_blend(bandai):
     start whose walk begins with the trailing foot rolled 0.88 rolled it so in one frame; when the walk lifted it
     while the stand still had the weight it went back to the stand's flat, then to the walk's 1. A Bandai foot held
     35° from the stand's (after a guide) turned 30° in a frame three times (918-951 deg/s, 2.8x the walk's own feet).
-    Each verb's roll now counts as far as it has the weight. Starts after each gesture at 12 seeds: the planted feet
-    turn within 1.25x the walk's own feet (up to 1.58x before; 1.13x now)."""
+    The verbs' rolls are now blended as the pose is. Starts after each gesture at 12 seeds: the planted feet turn
+    within 1.25x the walk's own feet (up to 1.58x before; 1.13x now)."""
     names = bandai.skeleton.names
     feet = [names.index("Foot_L"), names.index("Foot_R")]
     worst = []

@@ -623,9 +623,10 @@ def test_the_compiled_blend_bookkeeping_is_the_numpy_one(bandai):
     prev = root - rng.normal(0, 0.03, root.shape)
     speed = rng.uniform(0.5, 3.0, n)
     held_root, held_trans = root.copy(), np.array(trans)
+    held_back = np.ones(n, dtype=bool)
     keep_feet(graph.skeleton.parents, tips, rows, w, rot, held_trans, shown_rot, shown_trans, shown_vel, body,
-              graph.inverse_above_body, held_root, prev, speed, speed, np.full(n, np.inf), np.ones(n), DT,
-              np.ones(n, dtype=bool))  # fmt: skip
+              graph.inverse_above_body, held_root, prev, speed, speed, np.full(n, np.inf), np.ones(n), DT, held_back)  # fmt: skip
+    assert not held_back.any()  # no limit: nothing held back
     step = held_root[rows, :2] - prev[rows, :2]
     np.testing.assert_allclose(np.hypot(*step.T), speed * DT, rtol=1e-12, atol=0)
     advance = root[rows, :2] - prev[rows, :2]
@@ -649,9 +650,8 @@ def test_the_compiled_blend_bookkeeping_is_the_numpy_one(bandai):
     assert not free_back.any()  # no limit: nothing held back
     mid = root[rows, 2] - 0.5 * shown_vel[rows, 2] * DT
     before = quat.rotate(quat.about_y(mid), np.stack([shown_vel[rows, 0], np.zeros(n), shown_vel[rows, 1]], axis=1))
-    for i, c_ in enumerate(rows):
-        if not keep[i]:
-            continue
+    assert held_back.any() and not held_back.all()  # (the changes above hold some back and not others)
+    for i, c_ in enumerate(rows):  # (a row without feet held, too: a body catching up with its verb, lo 0, hi inf)
         wanted = (free_root[c_, :2] - root[c_, :2]) / DT
         got = (limited_root[c_, :2] - root[c_, :2]) / DT
         gap = np.hypot(*(wanted - before[i, [0, 2]]))

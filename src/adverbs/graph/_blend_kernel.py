@@ -22,7 +22,7 @@ from ..feet._planting_scalars import spring
 @njit(cache=True)
 def keep_feet(parents, tips, rows, weights, rot, trans, shown_rot, shown_trans, shown_vel, body, above_inv, root, prev,
               lo, hi, change, fade, dt, held_back):  # pragma: no cover  # fmt: skip
-    """For each creature ``rows[i]`` with foot weights ``weights[i] (L,)`` (unless they sum to zero): the weighted mean
+    """For each creature ``rows[i]`` with foot weights ``weights[i] (L,)`` (where they sum to more than zero): the weighted mean
     horizontal slip ``was − now`` of its feet ``tips (L,)`` between the pose shown before (``shown_rot``,
     ``shown_trans``) and this one (``rot``, ``trans``), added to its ``root (C, 3)`` = ``(x, z, heading)`` and, in
     the frame above the body root (``above_inv``, the inverse of its rest rotation), to the body root's translation;

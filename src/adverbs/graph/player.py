@@ -450,9 +450,10 @@ def _speeds(state: GraphState, base: _Base, velocity: np.ndarray) -> np.ndarray:
 
 
 def carry_limits(state: GraphState, rows: np.ndarray) -> np.ndarray:
-    """How fast the body of each creature of ``rows``, carried by its held feet under a decaying offset, may change
-    its velocity ``(n,)``, m/s²: no faster than its verbs' own bodies do at its adverbs, the larger of the verb
-    playing's and the one being entered's. A verb's own is its examples' root accelerations through their cycle
+    """How fast the body of each creature of ``rows`` may change its velocity ``(n,)``, m/s², where it is carried
+    (by its held feet in a blend of two verbs or under a decaying offset, or catching up with its verb after one:
+    :func:`_keep_feet`): no faster than its verbs' own bodies do at its adverbs, the larger of the verb playing's
+    and the one being entered's. A verb's own is its examples' root accelerations through their cycle
     (``Verb.root_acceleration_profile``) blended with the creature's weights at each generic time, at its fastest,
     kept within the examples' fastest (``Verb.root_accelerations``, at least ``SETTLING``, 0.1 m/s²: a stand in place
     has none of its own), a bow at 0.6-0.8 m/s², a walk at 3-18. Carried at a walk's pace (4 m/s², the limit
@@ -473,7 +474,8 @@ def _keep_feet(
     offset: np.ndarray, speed: np.ndarray, dt: float,
 ) -> np.ndarray:  # fmt: skip
     """Roots ``(C, 3)`` of creatures in a cosine blend, or with a decaying ``offset (C,)``, moved so the feet their
-    verbs hold stay where they were shown.
+    verbs hold stay where they were shown; and of creatures a carry left behind their verb's velocity
+    (``GraphState.lagging``), caught up with it no faster than :func:`carry_limits` allows.
 
     Blending two verbs whose stance feet sit at different places under the body slides a held foot by
     ``α'(A − B)``, however well each verb alone keeps it still; the body is carried instead, by the mean slip of
@@ -509,13 +511,12 @@ def _keep_feet(
     # ... and its velocity changes from the one shown no faster than its verbs' own allow (carry_limits): a cosine
     # blend had held the body to its speed while the slip ran ahead, and a command that cut it short let the whole
     # slip carry it at once (a start cut short two frames in went from 0.07 to 0.37 m/s in a frame, 13 m/s²).
-    change = np.full(len(rows), np.inf)
     # So does a cosine blend into a one-shot (a stop, a gesture): a stop held to the blend's speed alone braked at
     # 7-11 m/s² where the walk's own is 4-6, and a gesture entered from a stand still carrying the stop's last speed
-    # dropped it in a frame (its own 0.15 m/s²). So does a blend from one cycle into another, and a body it left
-    # behind the verb's velocity (``lagging``) catches up alone at that rate: a CMU walk → run of 0.17 s took the
-    # body from 1.3 to 3.0 m/s at 16.5 m/s² (the run's own 8), and held back within the blend alone it took up the
-    # rest in one frame once the blend ended (21 m/s²).
+    # dropped it in a frame (its own 0.15 m/s²). So does every other blend of two verbs (a start, one cycle into
+    # another), and a body one left behind the verb's velocity (``lagging``) catches up alone at that rate: a CMU
+    # walk → run of 0.17 s took the body from 1.3 to 3.0 m/s at 16.5 m/s² (the run's own 8), and held back within
+    # the blend alone it took up the rest in one frame once the blend ended (21 m/s²).
     change = carry_limits(state, rows)
     held_back = np.zeros(len(rows), dtype=bool)
     keep_feet(
@@ -538,11 +539,13 @@ def hold_phases(state: GraphState) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
     adverbs); a verb without a hold on that foot never holds it. In a cosine blend a foot is held where A holds it
     and B does too, or A still has the weight (``α ≥ 0.5``): a start's first foot stays down until the walk has the
     weight, then lifts, instead of being drawn backwards along the floor; a stop's swinging foot stays free until
-    the walk itself lands it. A foot held has rolled as far as the further of the two, each as far as it has the
-    weight (``max(α r_A, (1 − α) r_B)``), so that it rolls with the pose's blend: counted whole, a start whose walk
-    already rolled the trailing foot 0.88 rolled it so in a frame, back to flat when the walk lifted it while the
-    stand still had the weight, then to 1 when the walk took it (a Bandai foot held 35° from the stand's, turned
-    30° a frame three times); else the roll of the verb with the weight. A free foot keeps the swing lift of the verb that swings it (both: the lesser, as the
+    the walk itself lands it. A foot held so (where A holds it) has the verbs' rolls blended as the pose is,
+    ``α r_A + (1 − α) r_B`` (a foot B swings counts as rolled off, 1). Taken as the further of the two whatever
+    their weights, a start whose walk had already rolled the trailing foot 0.88 rolled it so in one frame, back to
+    flat when the walk lifted it while the stand still had the weight, then to 1 when the walk took it (a Bandai
+    foot held 35° from the stand's turned 30° a frame three times); and ``max(α r_A, (1 − α) r_B)`` halved the roll
+    of a foot both roll alike (a verb's loop into itself) halfway through. Any other foot (let go, or taken from
+    A's swing) has the roll of the verb with the weight. A free foot keeps the swing lift of the verb that swings it (both: the lesser, as the
     verb that lands it sooner puts it down; a foot both hold, the greater, as the one rolling it off lifts it), so a
     blend with a verb standing on that foot does not draw the swing down to the floor: a stop's swinging foot swings
     as the walk's does and lands as it lands. A foot B takes from A's swing as A begins to land it (``LANDS``) has
@@ -581,7 +584,7 @@ def hold_phases(state: GraphState) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
     major = (ha & (hb | first)) | taken
     both = ha & hb
     held = np.where(alone[:, None], ha, np.where(inertial[:, None], hb, major))
-    rolls = np.maximum(alpha * ra, (1.0 - alpha) * rb)
+    rolls = alpha * ra + (1.0 - alpha) * rb  # a foot A holds: the verbs' rolls blended as the pose is
     roll = np.where(alone[:, None], ra, np.where(inertial[:, None], rb, np.where(ha & (hb | first), rolls, np.where(first, ra, rb))))
     # The lift of the verb swinging it; of the one rolling it off, where both hold it (the planter lets such a foot go
     # as the verb lifts its ball): a stop begun as the walk rolled a foot off took the stand's none, and the foot

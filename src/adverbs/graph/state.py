@@ -46,7 +46,8 @@ class GraphState:
     and interruptions; the arms' offset a blend from one cycle into another carries on (``arms_rot``,
     ``arms_vel (C, U, 3)`` over ``Graph.arms``, taken ``arms_since`` seconds ago for transition ``arms_of``, to fade over
     ``arms_length`` seconds; ``arms_take``: take it at the next frame); the last two frames shown (for the velocities
-    an interruption carries on).
+    an interruption carries on); ``lagging``: the body's velocity was held back by its carry limit last frame, so it
+    goes on catching up with its verb's at that rate (``player._keep_feet``).
     """
 
     graph: Graph

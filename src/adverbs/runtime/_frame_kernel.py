@@ -524,8 +524,8 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
                 held[c, i] = (ha and (hb[i] or first)) or taken
                 if taken:  # held from A's least lift (player.hold_phases)
                     lifts[c, i] = max(lifts[c, i], k_[_SWING_LIFT] * sa)
-                if ha and (hb[i] or first):  # each verb's roll as far as it has the weight (player.hold_phases)
-                    roll[c, i] = max(alpha * ra, (1.0 - alpha) * rb[i])
+                if ha and (hb[i] or first):  # the verbs' rolls blended as the pose is (player.hold_phases)
+                    roll[c, i] = alpha * ra + (1.0 - alpha) * rb[i]
                 elif not first:
                     roll[c, i] = rb[i]
                 if ha and not hb[i]:  # the lift of the verb swinging it (B's; A's where only B holds it)
