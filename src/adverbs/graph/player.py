@@ -535,22 +535,22 @@ def hold_phases(state: GraphState) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
     the examples lift it (:func:`adverbs.feet.planter.example_lifts`; in a cosine blend, A's and B's blended as the
     pose is, none where either verb has none).
 
-    A verb instance holds a foot as its own hold says at its generic time (the examples' contact times at its
-    adverbs); a verb without a hold on that foot never holds it. In a cosine blend a foot is held where A holds it
-    and B does too, or A still has the weight (``α ≥ 0.5``): a start's first foot stays down until the walk has the
-    weight, then lifts, instead of being drawn backwards along the floor; a stop's swinging foot stays free until
-    the walk itself lands it. A foot held so (where A holds it) has the verbs' rolls blended as the pose is,
-    ``α r_A + (1 − α) r_B`` (a foot B swings counts as rolled off, 1). Taken as the further of the two whatever
-    their weights, a start whose walk had already rolled the trailing foot 0.88 rolled it so in one frame, back to
-    flat when the walk lifted it while the stand still had the weight, then to 1 when the walk took it (a Bandai
-    foot held 35° from the stand's turned 30° a frame three times); and ``max(α r_A, (1 − α) r_B)`` halved the roll
-    of a foot both roll alike (a verb's loop into itself) halfway through. Any other foot (let go, or taken from
-    A's swing) has the roll of the verb with the weight. A free foot keeps the swing lift of the verb that swings it (both: the lesser, as the
-    verb that lands it sooner puts it down; a foot both hold, the greater, as the one rolling it off lifts it), so a
-    blend with a verb standing on that foot does not draw the swing down to the floor: a stop's swinging foot swings
-    as the walk's does and lands as it lands. A foot B takes from A's swing as A begins to land it (``LANDS``) has
-    the least lift A kept under it as its examples' lift, so the planter lands it where it was shown and settles it
-    onto the floor rather than dropping it there in a frame.
+    A verb instance holds a foot as its own hold says at its generic time (the examples' contact times at its adverbs);
+    a verb without a hold on that foot never holds it. In a cosine blend a foot is held where A holds it and B does too,
+    or A still has the weight (``α ≥ 0.5``): a start's first foot stays down until the walk has the weight, then lifts,
+    instead of being drawn backwards along the floor; a stop's swinging foot stays free until the walk itself lands it.
+    A foot held so (where A holds it) has the verbs' rolls blended as the pose is, ``α r_A + (1 − α) r_B`` (a foot B
+    swings counts as rolled off, 1). Taken as the further of the two whatever their weights, a start whose walk had
+    already rolled the trailing foot 0.88 rolled it so in one frame, back to flat when the walk lifted it while the
+    stand still had the weight, then to 1 when the walk took it (a Bandai foot held 35° from the stand's turned 30° a
+    frame three times); and ``max(α r_A, (1 − α) r_B)`` halved the roll of a foot both roll alike (a verb's loop into
+    itself) halfway through. Any other foot (let go, or taken from A's swing) has the roll of the verb with the weight.
+    A free foot keeps the swing lift of the verb that swings it (both: the lesser, as the verb that lands it sooner puts
+    it down; a foot both hold, the greater, as the one rolling it off lifts it), so a blend with a verb standing on that
+    foot does not draw the swing down to the floor: a stop's swinging foot swings as the walk's does and lands as it
+    lands. A foot B takes from A's swing as A begins to land it (``LANDS``) has the least lift A kept under it as its
+    examples' lift, so the planter lands it where it was shown and settles it onto the floor rather than dropping it
+    there in a frame.
     """
     graph = state.graph
     c = state.creatures
