@@ -39,6 +39,9 @@ class GraphFeet:
 
     planter: FootPlanter
     replanting: np.ndarray
+    levels: np.ndarray  # (C, L, V): each foot's contact level in each verb, as the planter last took it there
+    hover0: np.ndarray  # (C, L): a free foot's contact level (FootPlanter.hover) when it was let go ...
+    level0: np.ndarray  # (C, L): ... and the levels of the verbs shown then (NaN: not known)
 
     @property
     def mode(self) -> np.ndarray:
@@ -70,7 +73,11 @@ def planter(graph: Graph, creatures: int = 1, floor: Floor | None = None) -> Gra
                 f"graph {graph.name!r}: verb {v.name!r} holds {[names[j] for j in effector_joints(v)]}, verb "
                 f"{holding[0].name!r} holds {[names[j] for j in tips]}: a graph's verbs must plant the same feet"
             )
-    return GraphFeet(FootPlanter(holding[0], creatures, floor), np.zeros((creatures, len(tips)), dtype=bool))
+    shape = (creatures, len(tips))
+    return GraphFeet(
+        FootPlanter(holding[0], creatures, floor), np.zeros(shape, dtype=bool), np.full((*shape, len(graph.verbs)), np.nan),
+        np.zeros(shape), np.full(shape, np.nan),
+    )  # fmt: skip
 
 
 def _step_lift(p: FootPlanter, swinging: np.ndarray) -> np.ndarray:
@@ -107,7 +114,9 @@ def plant(feet: GraphFeet, frame: Frame, dt: float, alone: np.ndarray, standing:
     held = frame.held & ~feet.replanting
     swinging = np.where(frame.held, 0.0, frame.swing)
     swing = np.where(feet.replanting, _step_lift(p, swinging), frame.swing)  # a foot re-placed steps: at the least lift
+    _rebase_hover(feet, frame)
     out = p.step(frame.rotations, frame.translations, None, dt, (held, frame.roll, swing, frame.lifts))
+    _take_levels(feet, frame)
     # A foot the planter let go out of its leg's reach (``spent``) that the verbs hold flat is re-placed, a step
     # from its release: it stayed free until the verbs' hold ended, and a stand's, a bow's or a guide's never does
     # (after a stop cut short by a gesture it followed the body along the floor for the rest of the standing: 60 cm
@@ -132,6 +141,44 @@ def plant(feet: GraphFeet, frame: Frame, dt: float, alone: np.ndarray, standing:
     else:
         feet.replanting |= far
     return out
+
+
+def _level(levels: np.ndarray, verbs: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """The contact level ``(C, L)`` of each foot in the verbs shown, ``verbs (C, 2)`` blended by ``alpha (C,)`` as the
+    pose is, from ``levels (C, L, V)``; NaN where a verb with any weight has none yet."""
+    rows = np.arange(len(verbs))
+    la, lb = levels[rows, :, verbs[:, 0]], levels[rows, :, verbs[:, 1]]
+    a = alpha[:, None]
+    return np.where(a >= 1.0, la, np.where(a <= 0.0, lb, a * la + (1.0 - a) * lb))
+
+
+def _rebase_hover(feet: GraphFeet, frame: Frame) -> None:
+    """A free foot's contact level (``FootPlanter.hover``, which lowers its swing so that it lands on the floor) moved by
+    as much as the levels of the verbs shown have moved since it was let go (:func:`_take_levels`).
+
+    The planter takes a foot's level as it leaves the floor, from the verb that stood it there. A CMU run stands a
+    foot 11 mm over its contact height, the walk 12 mm under it: a foot let go in a run and swung by the walk into
+    which it slowed was lowered 23 mm too far, came down a frame early and ran on along the floor (48 mm, the walk's
+    own 20)."""
+    p = feet.planter
+    moved = _level(feet.levels, frame.verbs, frame.alpha) - feet.level0
+    free = (p.mode == FREE) & np.isfinite(moved)
+    p.hover[free] = feet.hover0[free] + moved[free]
+
+
+def _take_levels(feet: GraphFeet, frame: Frame) -> None:
+    """The contact level of each foot let go this frame, kept for the verb that stood it (where one verb has all the
+    weight), and, for :func:`_rebase_hover`, with the verbs' levels then."""
+    p = feet.planter
+    gone = (p.mode == FREE) & (p.since[..., 1] == 0.0)
+    if not gone.any():
+        return
+    a, b = frame.verbs[:, 0], frame.verbs[:, 1]
+    one = np.where((frame.alpha >= 1.0) | (a == b), a, np.where(frame.alpha <= 0.0, b, -1))
+    c, i = np.nonzero(gone & (one >= 0)[:, None])
+    feet.levels[c, i, one[c]] = p.hover[c, i]
+    feet.hover0[gone] = p.hover[gone]
+    feet.level0[gone] = _level(feet.levels, frame.verbs, frame.alpha)[gone]
 
 
 def _others_down(mode: np.ndarray, replanting: np.ndarray) -> np.ndarray:

@@ -80,7 +80,8 @@ LANDS = 1.0  # a foot B holds and A swings lands once A's swing lift is below th
 class Frame:
     """One frame of C creatures: local ``rotations (C, J, 4)``, ``translations (C, J, 3)``, the ``root (C, 3)``,
     the root's velocities ``(C, 3)`` (sideways, forward m/s, turn rad/s), and per foot of the graph's feet
-    ``held (C, L)``, ``roll (C, L)``, ``swing (C, L)`` and ``lifts (C, L)`` (see :func:`hold_phases`)."""
+    ``held (C, L)``, ``roll (C, L)``, ``swing (C, L)`` and ``lifts (C, L)`` (see :func:`hold_phases`); the verbs
+    shown, ``verbs (C, 2)`` (A and B; A twice where a creature plays one verb) and A's weight ``alpha (C,)``."""
 
     rotations: np.ndarray
     translations: np.ndarray
@@ -90,6 +91,8 @@ class Frame:
     roll: np.ndarray
     swing: np.ndarray
     lifts: np.ndarray
+    verbs: np.ndarray
+    alpha: np.ndarray
 
 
 def feet(graph: Graph) -> list[int]:
@@ -319,7 +322,7 @@ def _step(state: GraphState, dt: float) -> Frame:
     state.root = new_root
     state.shown_before, state.shown = state.shown, (rot, trans, vel)
     state.held_before = held
-    return Frame(rot, trans, new_root.copy(), vel, held, roll, swing, lifts)
+    return Frame(rot, trans, new_root.copy(), vel, held, roll, swing, lifts, _verbs(state), base.alpha.copy())
 
 
 def _arms(state: GraphState, rot: np.ndarray, rot_b: np.ndarray | None, rebased: np.ndarray, dt: float) -> None:
@@ -380,7 +383,12 @@ def first_frame(state: GraphState) -> Frame:
     state.standing = _standing(state)
     state.moving = base.velocity.copy()
     state.shown, state.held_before = (rot, trans, base.velocity.copy()), held
-    return Frame(rot, trans, state.root.copy(), base.velocity.copy(), held, roll, swing, lifts)
+    return Frame(rot, trans, state.root.copy(), base.velocity.copy(), held, roll, swing, lifts, _verbs(state), base.alpha.copy())
+
+
+def _verbs(state: GraphState) -> np.ndarray:
+    """``(C, 2)``: the verb each creature plays (A) and the one it blends into (B; A where it plays one)."""
+    return np.stack([state.verb, np.where(state.active >= 0, state.into, state.verb)], axis=1)
 
 
 def _offset_lifts(lifts: np.ndarray, since: np.ndarray, halflife: np.ndarray) -> np.ndarray:

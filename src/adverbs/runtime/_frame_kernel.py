@@ -704,7 +704,8 @@ def _frame(lo, hi, dt, flags, turns, held, feet):  # pragma: no cover - compiled
         _chunk(start, stop, dt, flags[:4], verbs, transitions, skeleton, caches, state, head, buffers, outputs, k_,
                n_d, planted)  # fmt: skip
         if feet is not None:
-            finite = _plant(start, stop, dt, outputs, planted, feet, flags[4], k_) and finite
+            mix = (state[0], state[2], state[4], state[5], state[9])  # verb, into, active, beta, inertial
+            finite = _plant(start, stop, dt, outputs, planted, feet, flags[4], k_, mix) and finite
     events = outputs[4]
     n_events = 0
     for c in range(lo, hi):
@@ -713,19 +714,46 @@ def _frame(lo, hi, dt, flags, turns, held, feet):  # pragma: no cover - compiled
     return finite, n_events
 
 
+@njit(cache=True, inline="always")
+def _mix(c, mix):  # pragma: no cover - compiled
+    """The verbs a creature shows, A and B (A twice alone), and A's weight: ``player._verbs`` and ``_Base.alpha``."""
+    verb, into, active, beta, inertial = mix
+    if active[c] < 0:
+        return verb[c], verb[c], 1.0
+    alpha = 0.0 if inertial[c] else 0.5 * math.cos(min(max(beta[c], 0.0), 1.0) * np.pi) + 0.5
+    return verb[c], into[c], alpha
+
+
+@njit(cache=True, inline="always")
+def _level(levels, c, i, a, b, alpha):  # pragma: no cover - compiled
+    """``planted._level`` of one foot: its contact level in verbs ``a`` and ``b`` blended by ``alpha`` (NaN: unknown)."""
+    if alpha >= 1.0:
+        return levels[c, i, a]
+    if alpha <= 0.0:
+        return levels[c, i, b]
+    return alpha * levels[c, i, a] + (1.0 - alpha) * levels[c, i, b]
+
+
 @njit(cache=True)
-def _plant(lo, hi, dt, outputs, planted, feet, start, k_):  # pragma: no cover - compiled
+def _plant(lo, hi, dt, outputs, planted, feet, start, k_, mix):  # pragma: no cover - compiled
     """``planted.plant`` for creatures ``lo`` to ``hi``: the planter's kernel on their poses (in place), then which feet
-    to re-place (``GraphFeet``). ``start``: the planter's first frame; ``dt``: its step, every creature's."""
+    to re-place (``GraphFeet``). ``start``: the planter's first frame; ``dt``: its step, every creature's; ``mix``:
+    the state's verb, into, active, beta and inertial (the verbs shown, for each foot's contact level)."""
     held, roll, swing, kinds, lifts = outputs[0], outputs[1], outputs[2], outputs[3], outputs[6]
     (parents, generic, inside, dts, times, cyclic, verb_floor, tips, root, legs, constants, floor, st, chain,
-     ik_params, scratch, drop, residual, replanting) = borrowed_box(feet)  # fmt: skip
+     ik_params, scratch, drop, residual, replanting, levels, hover0, level0) = borrowed_box(feet)  # fmt: skip
     rot, trans = planted
     n_l = held.shape[1]
-    mode, offset, offset_vel, since, settle = st[0], st[4], st[5], st[6], st[11]
+    mode, offset, offset_vel, since, settle, hover = st[0], st[4], st[5], st[6], st[11], st[12]
     ln2 = k_[_LN2]
     for c in range(lo, hi):
         dts[c] = dt
+        a, b, alpha = _mix(c, mix)
+        for i in range(n_l):  # a free foot's contact level moved with the verbs' (planted._rebase_hover)
+            if mode[c, i] == FREE:
+                moved = _level(levels, c, i, a, b, alpha) - level0[c, i]
+                if math.isfinite(moved):
+                    hover[c, i] = hover0[c, i] + moved
         for i in range(n_l):
             inside[c, i] = held[c, i] and not replanting[c, i]
             if replanting[c, i]:  # a foot re-placed steps: it swings at the least lift, not along the floor
@@ -751,6 +779,14 @@ def _plant(lo, hi, dt, outputs, planted, feet, start, k_):  # pragma: no cover -
     )  # fmt: skip
     turn, target, spent, prev_free = st[1], st[2], st[7], st[14]
     for c in range(lo, hi):
+        a, b, alpha = _mix(c, mix)
+        one = a if (alpha >= 1.0 or a == b) else (b if alpha <= 0.0 else -1)
+        for i in range(n_l):  # the level of a foot let go this frame (planted._take_levels)
+            if mode[c, i] == FREE and since[c, i, 1] == 0.0:
+                if one >= 0:
+                    levels[c, i, one] = hover[c, i]
+                hover0[c, i] = hover[c, i]
+                level0[c, i] = _level(levels, c, i, a, b, alpha)
         for i in range(n_l):
             if spent[c, i] and mode[c, i] == FREE and held[c, i] and roll[c, i] == 0.0:  # let go, held flat
                 replanting[c, i] = True
