@@ -422,6 +422,30 @@ def test_a_foot_swung_from_a_run_into_a_walk_comes_down_as_the_walk_brings_it(gr
     assert off.max() <= 0.0035, f"{off.max() * 1000:.1f} mm from the walk's own"
 
 
+@pytest.mark.parametrize("seed, adverbs", [(3, {"walk_speed": 1.2, "run_speed": 3.0, "turn": 10.0}), (5, {"walk_speed": 1.6, "run_speed": 2.4})])
+@pytest.mark.parametrize("verb, other", [("walk", "run"), ("run", "walk")])
+def test_a_command_during_a_cycles_loop_lets_the_loop_play_on(graphs, seed, adverbs, verb, other):
+    """A command in the middle of a CMU walk's or run's loop into itself, for a way on whose region the next cycle has
+    not reached, cut the loop short: the next cycle took over where the loop's B was, found the way on's region gone
+    by, and began the loop again, late, from there (a run's loop then took 0.07 s, its blend weight going 0.40, 0.56,
+    0.01; a landing toe slid 13 cm further than the run's own). The loop now plays on: the frames are those of the
+    same performance without the command until the loop is over, and the way on is the next transition (the walk →
+    run the frame after it, as before; the run → walk at its region)."""
+    graph = graphs["cmu"]
+    plain = perform(graph, [Cue(0.3, verb)], seconds=4.0, seed=seed, adverbs=adverbs, start=verb, stay=True)
+    a = [a for _, _, a, _ in _windows(plain, graph, {(verb, verb)})][1]
+    end = a + int(np.argmax(plain.active[a:] != plain.active[a]))  # the first frame after the loop
+    told = perform(
+        graph, [Cue(0.3, verb), Cue((a + end) // 2 / FPS, other)], seconds=4.0, seed=seed, adverbs=adverbs, start=verb,
+        stay=True,
+    )  # fmt: skip
+    assert np.array_equal(told.planted.rotations[:end], plain.planted.rotations[:end])
+    assert np.array_equal(told.planted.translations[:end], plain.planted.translations[:end])
+    after = told.active[end:]
+    way_on = graph.transitions[after[np.argmax(after >= 0)]]  # the next transition: the way on, not another loop
+    assert told.active[end] < 0 and (graph.verb_names[way_on.source], graph.verb_names[way_on.target]) == (verb, other)
+
+
 def _held(perf):
     """Whether each foot is held at each frame ``(F, L)``, from the planting report's hold phases."""
     held = np.zeros((len(perf.verb), len(perf.report.phases)), dtype=bool)

@@ -44,7 +44,9 @@ def _command(state: GraphState, c: int, verb: str | int, stay: bool) -> list[int
     state.stay[c] = bool(stay)
     state.goal[c] = target
     state.asked[c] = state.time[c]
-    if state.active[c] >= 0 and target != state.into[c] and graph.transitions[state.active[c]].interruptible:
+    if state.active[c] >= 0 and target != state.into[c] and graph.transitions[state.active[c]].interruptible and not (
+        _loop_plays_on(state, c, path)
+    ):
         if target == state.verb[c] and graph.verbs[target].cyclic and not state.inertial[c]:
             _reverse(state, c)  # back to the cycle it was leaving, by the same blend
             state.queue[c] = []
@@ -66,6 +68,20 @@ def _command(state: GraphState, c: int, verb: str | int, stay: bool) -> list[int
         if target == state.verb[c]:
             _arrived(state, c)
     return list(state.queue[c])
+
+
+def _loop_plays_on(state: GraphState, c: int, path: list[int]) -> bool:
+    """Whether creature ``c``, in a cycle's loop into itself, plays the loop on rather than cut it short for ``path``:
+    where the cycle's next cycle (the loop's B) is not yet in the path's first region, cut short it only began the loop
+    again (late, from where it was cut: a CMU run's loop then took 0.07 s, its blend weight going 0.40, 0.56, 0.01) and
+    went on from there no sooner."""
+    graph = state.graph
+    t = graph.transitions[state.active[c]]
+    if t.source != t.target or not graph.verbs[t.source].cyclic:
+        return False
+    g = float(state.g_into[c]) % 1.0  # where the loop's B is in its cycle
+    start, end = graph.transitions[path[0]].source_region
+    return not start <= g < end
 
 
 def _reverse(state: GraphState, c: int) -> None:
