@@ -388,7 +388,12 @@ def first_frame(state: GraphState) -> Frame:
 
 def _verbs(state: GraphState) -> np.ndarray:
     """``(C, 2)``: the verb each creature plays (A) and the one it blends into (B; A where it plays one)."""
-    return np.stack([state.verb, np.where(state.active >= 0, state.into, state.verb)], axis=1)
+    return np.stack([state.verb, _entering(state)], axis=1)
+
+
+def _entering(state: GraphState) -> np.ndarray:
+    """``(C,)``: the verb each creature is entering, or the one it plays alone."""
+    return np.where(state.active >= 0, state.into, state.verb)
 
 
 def _offset_lifts(lifts: np.ndarray, since: np.ndarray, halflife: np.ndarray) -> np.ndarray:
@@ -403,7 +408,7 @@ def _offset_lifts(lifts: np.ndarray, since: np.ndarray, halflife: np.ndarray) ->
 def _standing(state: GraphState) -> np.ndarray:
     """Which creatures stand or are coming to stand ``(C,)``: the verb playing alone, or the one being entered, is a
     one-shot (a stand, a gesture; a stop too)."""
-    return ~state.graph.cyclic[np.where(state.active >= 0, state.into, state.verb)]
+    return ~state.graph.cyclic[_entering(state)]
 
 
 def _velocity(old: np.ndarray, new: np.ndarray, dt: float) -> np.ndarray:

@@ -271,6 +271,12 @@ def _dofs(out, v, slot, c, g, verbs, caches, blend):  # pragma: no cover - compi
             out[d] += lap * seam[d]
 
 
+@njit(cache=True, inline="always")
+def _blend_weight(beta):  # pragma: no cover - compiled
+    """``clocks.blend_weight`` of one creature: A's weight ``α = 0.5 cos(βπ) + 0.5``, β clipped to [0, 1]."""
+    return 0.5 * math.cos(min(max(beta, 0.0), 1.0) * np.pi) + 0.5
+
+
 @njit(cache=True)
 def _base(c, ga, gb, verbs, caches, state, d_a, d_b, vel, blend):  # pragma: no cover - compiled
     """``player._sample`` of one creature at A's and B's generic times: DOFs into ``d_a``, ``d_b``, the blended root
@@ -283,7 +289,7 @@ def _base(c, ga, gb, verbs, caches, state, d_a, d_b, vel, blend):  # pragma: no 
         rate_a, rate_b = _rates(c, verbs, caches, state)
         if state[7][c, 0] == state[7][c, 1] and not verbs[5][verb[c]]:
             rate_a = 1.0  # a one-shot waiting at its end: its body goes on at its last velocity (player._sample)
-        alpha = 0.0 if inert else 0.5 * math.cos(min(max(beta[c], 0.0), 1.0) * np.pi) + 0.5
+        alpha = 0.0 if inert else _blend_weight(beta[c])
         _dofs(d_b, into[c], 1, c, gb, verbs, caches, blend)
     vel[0], vel[1], vel[2] = 0.0, 0.0, 0.0
     if not inert:
@@ -720,7 +726,7 @@ def _mix(c, mix):  # pragma: no cover - compiled
     verb, into, active, beta, inertial = mix
     if active[c] < 0:
         return verb[c], verb[c], 1.0
-    alpha = 0.0 if inertial[c] else 0.5 * math.cos(min(max(beta[c], 0.0), 1.0) * np.pi) + 0.5
+    alpha = 0.0 if inertial[c] else _blend_weight(beta[c])
     return verb[c], into[c], alpha
 
 
