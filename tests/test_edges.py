@@ -698,3 +698,70 @@ def test_a_foot_held_through_a_start_rolls_with_the_blend(bandai):
         _, _, a, b = starts[0]
         worst.append((float(speed[a - 1 : b - 1].max() / own), seed, gesture))
     assert max(worst)[0] <= 1.25, max(worst)
+
+
+def _dense_levels(verb, p, n=256):
+    """Each foot's lowest over its hold at point ``p``: the verb's pose at ``n`` generic times of the hold, full FK."""
+    from adverbs.kinematics.fk import forward_kinematics
+
+    times = verb.hold_times(verb.weights(p[None]))[0]
+    tips = [verb.skeleton.index(c.effector) for c in verb.constraints]
+    out = []
+    for i, h in enumerate(verb.holds):
+        t = np.linspace(h.open, times[i, 2], n) % 1.0
+        rot, trans = verb.encoding.decode_pose(verb.dofs(np.repeat(p[None], n, 0), t), np.zeros(3))
+        pos, _ = forward_kinematics(verb.skeleton.parents, rot, trans)
+        out.append((pos[:, tips[i], 1] - verb.floor - h.height).min())
+    return np.array(out)
+
+
+@pytest.mark.parametrize("graph_name", ["bandai", "cmu"])
+def test_a_verbs_contact_level_is_the_lowest_its_foot_comes_in_its_hold(bandai, cmu, graph_name):
+    """``Verb.contact_levels``: how far a cycle's stance sits over or under the floor at adverb points, each foot's
+    lowest over its hold in the verb's own pose there (what the planter takes a verb's level to be before it has stood
+    a foot in it). Within 1.5 mm of the pose sampled 256 times over the hold, at every example and at random points
+    among them; a crowd's are each creature's alone (to rounding); a stand has none; a NaN adverb is refused."""
+    from adverbs.errors import AdverbsError
+
+    graph = {"bandai": bandai, "cmu": cmu}[graph_name]
+    rng = np.random.default_rng(3)
+    for verb in graph.verbs:
+        if not verb.cyclic:
+            assert np.isnan(verb.contact_levels(verb.points[:2])).all()
+            continue
+        lo, hi = verb.points.min(axis=0), verb.points.max(axis=0)
+        points = np.concatenate([verb.points, lo + (hi - lo) * rng.uniform(0, 1, (6, len(lo)))])
+        levels = verb.contact_levels(points)
+        dense = np.array([_dense_levels(verb, p) for p in points])
+        np.testing.assert_allclose(levels, dense, rtol=0, atol=0.0015)
+        assert np.ptp(levels) > 0.005  # the adverbs move it
+        for i in (0, len(points) - 1):
+            np.testing.assert_allclose(verb.contact_levels(points[i : i + 1])[0], levels[i], rtol=0, atol=1e-12)
+        with pytest.raises(AdverbsError, match="finite"):
+            verb.contact_levels(np.full((1, len(lo)), np.nan))
+
+
+def test_know_levels_fills_what_the_planter_has_not_taken(cmu):
+    """Before a frame, each creature's verbs (playing, entering, next) get the levels the planter has not taken yet,
+    worked out at the creature's own adverbs; levels it took stay; a verb already looked at is not worked again."""
+    from adverbs.graph.planted import know_levels, planter
+    from adverbs.graph.queue import command
+    from adverbs.graph.state import new_state
+
+    points = np.stack([cmu.point({"walk_speed": 1.0, "run_speed": 2.5}), cmu.point({"walk_speed": 1.6, "run_speed": 3.8})])
+    state = new_state(cmu, 2, 0, "walk", points=points, stay=True)
+    feet = planter(cmu, 2)
+    walk, run = cmu.verb_index("walk"), cmu.verb_index("run")
+    feet.levels[0, 0, walk] = 0.123  # taken by the planter
+    know_levels(feet, state)
+    cols = cmu.hold_layout[walk][1]
+    own = cmu.verbs[walk].contact_levels(cmu.verb_points(walk, points))
+    np.testing.assert_array_equal(feet.levels[1, cols, walk], own[1])
+    assert feet.levels[0, cols[0], walk] == 0.123 and feet.levels[0, cols[1], walk] == own[0, 1]
+    assert np.isnan(feet.levels[:, :, run]).all() and not feet.known[:, run].any()
+    command(state, 1, "run", stay=True)  # next: the run, for creature 1 alone
+    know_levels(feet, state)
+    assert np.isnan(feet.levels[0, :, run]).all() and np.isfinite(feet.levels[1, :, run]).all()
+    feet.levels[1, :, run] = 0.5
+    know_levels(feet, state)
+    assert (feet.levels[1, :, run] == 0.5).all()

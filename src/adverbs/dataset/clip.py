@@ -27,7 +27,7 @@ from ..feet.offline import plant_feet, report_of_modes
 from ..feet.planter import LIFTED
 from ..graph.easing import Easing
 from ..graph.performance import MAX_SECONDS, Cue, perform, repeat
-from ..graph.planted import plant, planter
+from ..graph.planted import know_levels, plant, planter
 from ..graph.player import Frame, first_frame, step
 from ..graph.queue import command
 from ..graph.state import new_state
@@ -247,6 +247,10 @@ def _together(graph: Graph, fps: float, creatures: list[_Creature]) -> list[tupl
                     refused[k].append((cue.time, str(e)))
         first = from_start and f == 0
         easing.apply(state.points, now if first else now + dt)
+        if holds:
+            for k in range(c):
+                if f < frames[k]:
+                    know_levels(feet[k], state, slice(k, k + 1))
         frame = first_frame(state) if first else step(state, dt)
         for k in range(c):
             if f >= frames[k]:

@@ -20,7 +20,7 @@ from ..motion.clip import Clip
 from ..feet.offline import PlantingReport, report_of_modes
 from ..verb.synthesis import MAX_FPS, plan
 from .easing import Easing
-from .planted import plant, planter
+from .planted import know_levels, plant, planter
 from .player import first_frame, step
 from .queue import command
 from .state import GraphState, new_state
@@ -156,6 +156,8 @@ def perform(
         before = len(state.latencies)
         first = from_start and f == 0
         easing.apply(state.points, now if first else now + dt)
+        if feet is not None:
+            know_levels(feet, state)
         frame = first_frame(state) if first else step(state, dt)
         free_rot[f], free_trans[f] = frame.rotations[0], frame.translations[0]
         if feet is not None:

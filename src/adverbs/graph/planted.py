@@ -13,6 +13,7 @@ from ..kinematics.floor import Floor
 from ..feet.planter import BALL, FREE, FootPlanter, _smoothstep, effector_joints
 from .structure import Graph
 from .player import Frame
+from .state import GraphState
 
 
 REPLANT = 0.06  # metres: a held foot this far (across the floor) from where the verb playing has it is re-placed
@@ -40,8 +41,12 @@ class GraphFeet:
     planter: FootPlanter
     replanting: np.ndarray
     levels: np.ndarray  # (C, L, V): each foot's contact level in each verb, as the planter last took it there
+    #   (before it has: the verb's own at the creature's adverbs, Verb.contact_levels; see know_levels)
     hover0: np.ndarray  # (C, L): a free foot's contact level (FootPlanter.hover) when it was let go ...
     level0: np.ndarray  # (C, L): ... and the levels of the verbs shown then (NaN: not known)
+    known: np.ndarray  # (C, V): which verbs' levels know_levels has looked for
+    leveled: np.ndarray  # (V,): which verbs have levels of their own (a cycle that holds feet: Verb.contact_levels)
+    targets: np.ndarray  # (T,): each transition's target verb
 
     @property
     def mode(self) -> np.ndarray:
@@ -76,8 +81,36 @@ def planter(graph: Graph, creatures: int = 1, floor: Floor | None = None) -> Gra
     shape = (creatures, len(tips))
     return GraphFeet(
         FootPlanter(holding[0], creatures, floor), np.zeros(shape, dtype=bool), np.full((*shape, len(graph.verbs)), np.nan),
-        np.zeros(shape), np.full(shape, np.nan),
+        np.zeros(shape), np.full(shape, np.nan), np.zeros((creatures, len(graph.verbs)), dtype=bool),
+        np.array([bool(v.cyclic and v.holds) for v in graph.verbs]),
+        np.array([t.target for t in graph.transitions] + [0], dtype=np.int64),  # (and one for an empty queue's -1)
     )  # fmt: skip
+
+
+def know_levels(feet: GraphFeet, state: GraphState, rows: slice = slice(None)) -> None:
+    """Each foot's contact level in the verbs each creature plays, enters and enters next (its queue's first
+    transition's target) where the planter has taken none yet: the verb's own at the creature's adverbs
+    (:meth:`Verb.contact_levels`), once for each creature and verb. Called before each frame, by every path alike;
+    ``rows``: the state's creatures ``feet`` plants (all of them, or one of a dataset's, each with its own planter).
+
+    The planter takes a foot's level in a verb as it lets the foot go there (:func:`_take_levels`); a foot's first
+    stance in a verb had none, so a free foot's level did not move into the verb's: the first run after a CMU walk
+    at 2.8 m/s landed its first foot with the walk's level (−5 mm where the run's own is −28), 23 mm low, and its toe
+    ran 116 mm along the floor (the run's own 84)."""
+    graph = state.graph
+    head = state.head if state.head is not None else np.array([q[0] if q else -1 for q in state.queue], dtype=np.int64)
+    verb, into, active, points = state.verb[rows], state.into[rows], state.active[rows], state.points[rows]
+    verbs = np.stack([verb, np.where(active >= 0, into, verb), feet.targets[head[rows]]], axis=1)
+    need = feet.leveled[verbs] & ~feet.known[np.arange(len(verbs))[:, None], verbs]
+    if not need.any():
+        return
+    for v in np.unique(verbs[need]).tolist():
+        c = np.flatnonzero((need & (verbs == v)).any(axis=1))
+        cols = graph.hold_layout[v][1]
+        worked = graph.verbs[v].contact_levels(graph.verb_points(v, points[c]))  # (n, L_v)
+        kept = feet.levels[c[:, None], cols[None, :], v]
+        feet.levels[c[:, None], cols[None, :], v] = np.where(np.isnan(kept), worked, kept)  # what it took stays
+        feet.known[c, v] = True
 
 
 def _step_lift(p: FootPlanter, swinging: np.ndarray) -> np.ndarray:

@@ -95,6 +95,7 @@ class GraphState:
     caches: dict = field(default_factory=dict)
     head: np.ndarray | None = None  # (C,) each queue's first transition (−1: empty), kept for the compiled frame
     cache_version: int = 0  # counts the times a verb's cached rows changed (clocks._sampling), for the compiled frame
+    head_version: int = 0  # counts the times a queue's first transition was noted (sync_head), for the compiled frame
 
     @property
     def creatures(self) -> int:
@@ -182,3 +183,4 @@ def sync_head(state: GraphState, c: int) -> None:
     """Note creature ``c``'s first queued transition in :attr:`GraphState.head` (−1 when the queue is empty)."""
     if state.head is not None:
         state.head[c] = state.queue[c][0] if state.queue[c] else -1
+    state.head_version += 1

@@ -40,7 +40,7 @@ import numpy as np
 from ..errors import AdverbsError, AdverbsWarning
 from ..limits import check_frames
 from ..graph.easing import Easing
-from ..graph.planted import GraphFeet, plant, planter
+from ..graph.planted import GraphFeet, know_levels, plant, planter
 from ..graph.player import step
 from ..graph.queue import command
 from ..graph.state import GraphState, new_state
@@ -506,6 +506,8 @@ class Simulation:
         if g.frame is not None:  # one compiled pass
             g.rotations, g.translations = g.frame.step(dt, plant=self._plant)
         else:
+            if g.feet is not None and self._plant:
+                know_levels(g.feet, s)
             frame = step(s, dt)
             if g.feet is not None and self._plant:
                 g.rotations, g.translations, _ = plant(g.feet, frame, dt, s.alone, s.standing)

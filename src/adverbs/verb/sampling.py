@@ -332,20 +332,37 @@ def dofs(verb: Verb, p: np.ndarray, t: np.ndarray) -> np.ndarray:
         raise AdverbsError("generic times must be finite numbers")
     if len(p) != len(t):
         raise AdverbsError(f"dofs: {len(p)} adverb points but {len(t)} times")
-    out = np.empty((len(t), verb.num_dofs))
+    return generic_dofs(verb, point_weights(verb, p), np.arange(len(t)), t)
+
+
+def point_weights(verb: Verb, p: np.ndarray) -> np.ndarray:
+    """The sampling kernel's weights ``(C, W)`` at adverb points ``p (C, A)`` (finite, checked), row by row in compiled
+    code: each point's the same bits alone or among many (:meth:`Verb.weights` multiplies matrices, whose sums BLAS
+    orders by their size)."""
+    p = np.ascontiguousarray(p, dtype=float)
     e = len(verb.examples)
-    no_keytimes, no_seam = np.zeros((e, 0)), np.zeros((verb.weight_columns, 0))  # generic times: no warp, no cycles
+    no_keytimes, no_seam = np.zeros((e, 0)), np.zeros((verb.weight_columns, 0))
+    w = np.empty((len(p), verb.weight_columns))
+    for a in range(0, len(p), CHUNK):
+        refresh_batch(
+            p, np.arange(a, min(a + CHUNK, len(p))), *verb.interpolator.kernel_tables, no_keytimes, np.zeros((2, 0)),
+            no_seam, w, np.empty((len(p), 1)), np.empty((len(p), 0)),
+        )  # fmt: skip
+    return w
+
+
+def generic_dofs(verb: Verb, w: np.ndarray, rows: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """DOFs ``(Q, D)`` at generic times ``t (Q,)``, query ``q`` at the point of weights ``w[rows[q]]`` (``w (C, W)``,
+    :func:`point_weights`): :func:`dofs` with each point's weights worked out once however many times are asked of it."""
+    out = np.empty((len(t), verb.num_dofs))
+    no_keytimes, no_seam = np.zeros((len(verb.examples), 0)), np.zeros((verb.weight_columns, 0))
     with one_blas_thread():
         for a in range(0, len(t), CHUNK):
-            rows = np.arange(min(CHUNK, len(t) - a))
-            w = np.empty((len(rows), verb.weight_columns))
-            refresh_batch(
-                p[a : a + CHUNK], rows, *verb.interpolator.kernel_tables, no_keytimes, np.zeros((2, 0)), no_seam,
-                w, np.empty((len(rows), 1)), np.empty((len(rows), 0)),
-            )  # fmt: skip
+            b = min(a + CHUNK, len(t))
             sample_batch(
-                verb.segments, w, no_keytimes, verb.generic_keytimes, no_seam, no_seam, _NO_COLUMNS, _NO_WINDOW, rows,
-                t[a : a + CHUNK], GENERIC, SEAM_BLEND, out[a : a + CHUNK], np.empty(len(rows), dtype=np.int64),
+                verb.segments, w, no_keytimes, verb.generic_keytimes, no_seam, no_seam, _NO_COLUMNS, _NO_WINDOW,
+                np.ascontiguousarray(rows[a:b], dtype=np.int64), t[a:b], GENERIC, SEAM_BLEND, out[a:b],
+                np.empty(b - a, dtype=np.int64),
             )  # fmt: skip
     return out
 
