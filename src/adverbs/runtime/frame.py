@@ -191,7 +191,6 @@ class FramePass:
             raise AdverbsError("the compiled frame plants on flat floors, slopes and height maps; this floor is a function")
         self.feet = feet
         self._feet_key = self._feet_boxed = None
-        self._levels_at = -1  # GraphState.head_version when know_levels last looked (for this planter)
         if feet is not None:
             c, j, n = self.state.creatures, self.graph.skeleton.num_joints, len(feet.planter._compiled.tips)
             self._inside = np.zeros((c, n), dtype=bool)
@@ -307,11 +306,7 @@ class FramePass:
         start = False
         if planting_on:
             start = not self.feet.planter.started
-            if self._levels_at != state.head_version:
-                # The verbs a creature plays, enters and enters next change only with its queue's head (a
-                # transition starting or ending moves it on, a command replaces it): looked at then, not every frame.
-                know_levels(self.feet, state)
-                self._levels_at = state.head_version
+            know_levels(self.feet, state)
         flags = (first, has_shown, has_before, has_held_before, start)
         turns = (new, shown, before, self._turn)
         planted = self._planted[self._turn]
