@@ -45,7 +45,7 @@ from adverbs.graph.performance import Cue, perform
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests"))  # the measures the tests hold the motion to, one definition of each
-from test_edges import FPS, PARTS, _contact, _windows, gesture_script, low_travel  # noqa: E402
+from test_edges import FPS, PARTS, _contact, _settled, _windows, gesture_script, low_travel  # noqa: E402
 from test_transitions import _measures, _own, _points_in_effect  # noqa: E402
 
 GRAPHS = ROOT / "graphs"
@@ -75,10 +75,11 @@ class Measured:
         self.hips, self.free_hips = pos[:, pelvis, 1], free[:, pelvis, 1]
 
 
-def window(m: Measured, ref: dict[str, float], a: int, b: int) -> list[float]:
+def window(m: Measured, ref: dict[str, float], a: int, b: int, whole: tuple[int, int] | None = None) -> list[float]:
     """Frames ``a`` to ``b`` of a performance against its verbs' own ``ref``: toe over own (m), arms, legs, trunk
-    and root acceleration over their own, hips over the unplanted."""
-    frames = np.arange(a, b)
+    and root acceleration over their own, hips over the unplanted; the toe and the hips over ``whole`` (frames, the
+    whole window a part of it is in: test_edges._settled) when given."""
+    frames = np.arange(*(whole or (a, b)))
     row = [low_travel(m.toes, m.contact, frames) - ref["toe"]]
     row += [float(m.parts[p][a:b].max()) / max(ref[p], 1e-9) for p in PARTS]  # its steps: from frame a − 1 to b − 1
     row.append(float(m.acc[a:b].max()) / max(ref["acc"], 1e-9))
@@ -108,10 +109,11 @@ def measure(name: str) -> dict[tuple[str, str], list[float]]:
         m = Measured(perf, graph, *args)
         spans = _points_in_effect(adverbs, script, perf.eases)
         owns = [{v: _own(graph, v, args[0], seed, p) for v in graph.verb_names} for _, _, p in spans]
-        for s, t, a, b in _windows(perf, graph, {(x, y) for x in graph.verb_names for y in graph.verb_names}):
+        every = _windows(perf, graph, {(x, y) for x in graph.verb_names for y in graph.verb_names})
+        for s, t, a, b, also, part in _settled(perf, graph, every):  # a landing settling as the next begins: both's
             mine = [o for (start, end, _), o in zip(spans, owns) if start <= b / FPS and a / FPS < end]
-            ref = {k: max(max(o[s][k], o[t][k]) for o in mine) for k in mine[0][s]}
-            row = window(m, ref, a, b) + [float(m.lifted[a:b].max())]
+            ref = {k: max(o[v][k] for o in mine for v in also | {s, t}) for k in mine[0][s]}
+            row = window(m, ref, a, b, every[part][2:]) + [float(m.lifted[a:b].max())]
             best = worst.setdefault((s, t), [-np.inf] * len(row))
             worst[(s, t)] = [max(x, y) for x, y in zip(best, row)]
     return worst
@@ -131,11 +133,18 @@ def random_scripts(seeds=RANDOM_SEEDS) -> dict[tuple[str, str], list[list[float]
         perf = perform(graph, cues, seconds=28.0, seed=seed, adverbs=adverbs, start="idle")
         m = Measured(perf, graph, *args)
         owns = {v: _own(graph, v, args[0], seed, adverbs) for v in graph.verb_names}
-        for s, t, a, b in _windows(perf, graph, {(x, y) for x in graph.verb_names for y in graph.verb_names}):
-            ref = {k: max(owns[s][k], owns[t][k]) for k in owns[s]}
-            row = window(m, ref, a, b)
+        every = _windows(perf, graph, {(x, y) for x in graph.verb_names for y in graph.verb_names})
+        rows: dict[int, tuple[str, str, list[float]]] = {}
+        for s, t, a, b, also, k in _settled(perf, graph, every):
+            ref = {key: max(owns[v][key] for v in also | {s, t}) for key in owns[s]}
+            row = window(m, ref, a, b, every[k][2:])
             # The hips as the tests bound them (test_transitions): over 1.2x the unplanted range plus 2 mm, by so much.
-            row[5] = float(np.ptp(m.hips[a:b]) - 1.2 * np.ptp(m.free_hips[a:b]) - 0.002)
+            wa, wb = every[k][2:]
+            row[5] = float(np.ptp(m.hips[wa:wb]) - 1.2 * np.ptp(m.free_hips[wa:wb]) - 0.002)
+            if k in rows:  # a window's two parts (_settled): its worst of each
+                row = [max(x, y) for x, y in zip(rows[k][2], row)]
+            rows[k] = (s, t, row)
+        for s, t, row in rows.values():
             out.setdefault((s, t), []).append(row)
     return out
 
