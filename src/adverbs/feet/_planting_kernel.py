@@ -55,7 +55,7 @@ def constants(swing, ln2, halflives, settle, clearance, still_down, lifts_off, t
 # ----- floors: kinematics.floor ---------------------------------------------------------------------------
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _grid_index(axis, v):
     """The cell ``i`` of regular grid lines ``axis`` holding ``v`` (the edge cells beyond) and ``v``'s fraction across it."""
     i = int(math.floor((v - axis[0]) / (axis[1] - axis[0])))
@@ -76,13 +76,13 @@ def _height(floor, x, z):
             + grid[i + 1, j] * u * (1.0 - v) + grid[i + 1, j + 1] * u * v)  # fmt: skip
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _tilt(floor, x, z, out):
     """``FootPlanter._tilt`` at ``(x, z)`` into ``out (3, 3)``: ``floor.tilt(floor.normal(xz))``, the shortest turn
     of the vertical onto the normal taken by central differences (a plane's is given: its difference quotients
     are its gradient, whatever the point, to rounding)."""
     if floor[0] == PLANE:
-        out[:] = floor[2]
+        _copy33(floor[2], out)
         return
     h = floor[1][4]
     sx = (_height(floor, x + h, z) - _height(floor, x - h, z)) / (2 * h)
@@ -97,7 +97,16 @@ def _tilt(floor, x, z, out):
 # ----- rotations: kinematics.quat ------------------------------------------------------------------------
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
+def _copy33(a, out):
+    """``out[:] = a`` of two 3×3 matrices, element by element: a slice copy may allocate a temporary, which the
+    functions compiled without reference counting cannot (see ``runtime._frame_kernel``)."""
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = a[i, j]
+
+
+@njit(cache=True, _nrt=False)
 def _rotvec_matrix(vx, vy, vz, out):
     """``quat.rotvec_matrix`` of one rotation vector."""
     angle = math.sqrt(vx * vx + vy * vy + vz * vz)
@@ -113,27 +122,28 @@ def _mmt(a, b, out):
             out[i, j] = a[i, 0] * b[j, 0] + a[i, 1] * b[j, 1] + a[i, 2] * b[j, 2]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _log(q, out):
     """``quat.log``: the rotation vector of ``q``, keeping its sign."""
     out[0], out[1], out[2] = _pose_kernel._log(q[0], q[1], q[2], q[3])
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _turn(held, free, w, out, q):
     """``planting._turn`` of one foot: ``held`` slerped towards ``free`` by ``w`` (``quat.slerp``; one or the
     other outside ``(0, 1)``); ``q (2, 4)``: scratch."""
     if w >= 1.0:
-        out[:] = free
+        _copy33(free, out)
         return
     if not w > 0.0:
-        out[:] = held
+        _copy33(held, out)
         return
     a, b = q[0], q[1]
     _mat_to_quat(held, a)
     _mat_to_quat(free, b)
     if a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] < 0.0:  # the short way
-        b[:] = -b
+        for e in range(4):
+            b[e] = -b[e]
     x, y, z, s = _pose_kernel._mul(-a[0], -a[1], -a[2], a[3], b[0], b[1], b[2], b[3])
     rx, ry, rz = _pose_kernel._log(x, y, z, s)
     x, y, z, s = _pose_kernel._exp(rx * w, ry * w, rz * w)
@@ -170,7 +180,7 @@ def _released_rot(free_rot, rel_vec, rot_since, k_, out, scratch):
     """``FootPlanter._released_rot`` of one foot: its orientation turned by what is left of its release's turn."""
     k = _spring(1.0, 0.0, rot_since, k_[_SWING], k_[_LN2])
     if k < 1e-9:  # long let go: nothing left to turn
-        out[:] = free_rot
+        _copy33(free_rot, out)
         return
     _rotvec_matrix(rel_vec[0] * k, rel_vec[1] * k, rel_vec[2] * k, scratch)
     _mm(scratch, free_rot, out)
@@ -244,13 +254,22 @@ def advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, examples_
     examples' lifts, ``-inf`` for none; without phases, none); ``dt (C,)``; ``start``: the
     first frame (the contact levels from the feet that are down); ``times (C, L, 3)``: the holds' times.
     """
+    n_l = free_pos.shape[1]
+    inside = np.empty(n_l, dtype=np.bool_)
+    buf = np.empty(3 * n_l + 4 * 3 + 4 + 3 * 9 + 4 * 9 + 2 * 4)
+    _advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, examples_in, use_phases, dt, start, times,
+             cyclic, verb_floor, legs, k_, floor, state, shown_out, wanted_out, inside, buf)  # fmt: skip
+
+
+@njit(cache=True, _nrt=False)
+def _advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, examples_in, use_phases, dt, start, times,
+             cyclic, verb_floor, legs, k_, floor, state, shown_out, wanted_out, inside, buf):  # fmt: skip
+    """:func:`advance` in its working arrays ``inside (L,)`` and ``buf`` (not counted: see ``_frame_kernel``)."""
     mode, turn, _, held_rot, offset, offset_vel, since, spent, rising, rel_vec, rot_since, settle = state[:12]
     hover, ground, prev_free = state[12], state[13], state[14]
     heights, opens, heel_heights, tip, heel_axis = legs
     n_c, n_l = free_pos.shape[0], free_pos.shape[1]
     clearance, still_down, lifts_off, toe_lands = k_[_CLEARANCE], k_[_STILL_DOWN], k_[_LIFTS_OFF], k_[_TOE_LANDS]
-    inside = np.empty(n_l, dtype=np.bool_)
-    buf = np.empty(3 * n_l + 4 * 3 + 4 + 3 * 9 + 4 * 9 + 2 * 4)
     turns, at = carve(buf, 0, (n_l,))
     lifts, at = carve(buf, at, (n_l,))
     swings, at = carve(buf, at, (n_l,))
@@ -280,7 +299,8 @@ def advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, examples_
             for i in range(n_l):
                 hover[c, i] = down if math.isfinite(down) else 0.0
                 ground[c, i] = np.inf
-                prev_free[c, i] = free_pos[c, i]
+                for a in range(3):
+                    prev_free[c, i, a] = free_pos[c, i, a]
         d = dt[c]
         for i in range(n_l):
             follows = math.isnan(heights[i])  # an effector that keeps the verb's height
@@ -324,7 +344,8 @@ def advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, examples_
                 _mmt(wanted, free_wanted, rel)
                 _mat_to_quat(rel, q)
                 if q[3] < 0.0:  # the short way round
-                    q[:] = -q
+                    for e in range(4):
+                        q[e] = -q[e]
                 _log(q, rel_vec[c, i])
                 rot_since[c, i] = 0.0
                 for a in range(3):
@@ -362,20 +383,21 @@ def advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, examples_
             if mode[c, i] != FREE:  # the verb's own level: the lowest its foot gets while held
                 ground[c, i] = min(ground[c, i], lift)
             turn[c, i] = tn
-            prev_free[c, i] = fp
+            for a in range(3):
+                prev_free[c, i, a] = fp[a]
             if fresh:  # nothing _shown reads has changed since it ran
-                shown_out[c, i] = shown
-                wanted_out[c, i] = wanted
+                for a in range(3):
+                    shown_out[c, i, a] = shown[a]
+                _copy33(wanted, wanted_out[c, i])
             else:
                 _shown(c, i, base, fr, tn, follows, height, tip[i], heel_axis[i], k_, floor, state, shown_out[c, i],
                        wanted_out[c, i], s, qs)  # fmt: skip
-    keep(buf)  # its carved views are borrowed
 
 
 # ----- the rest of a frame: _rise, reach, _ride_floor, _tilts, then IK ----------------------------------
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def rise(roots, targets, verb_floor, floor, out):
     """``planting._rise``: how far each creature's pelvis rides up (``roots (C, 3)``, ``targets (C, L, 3)``), into ``out (C,)``."""
     for c in range(len(out)):
@@ -385,7 +407,7 @@ def rise(roots, targets, verb_floor, floor, out):
         out[c] = low - verb_floor
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _heel_turn(wanted, axis, angle, rot, out):
     """``planting._heel_turn`` of one foot: ``wanted (3, 3)`` turned heel-up by ``angle`` about ``axis (3,)`` in the
     foot's frame, in place; ``rot``, ``out (3, 3)``: scratch."""
@@ -394,10 +416,10 @@ def _heel_turn(wanted, axis, angle, rot, out):
     _mv(wanted, axis, out[0])  # the axis in the world
     _rotvec_matrix(out[0, 0] * angle, out[0, 1] * angle, out[0, 2] * angle, rot)
     _mm(rot, wanted, out)
-    wanted[:] = out
+    _copy33(out, wanted)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _heel_needed(bx, by, bz, ax, ay, az, ux, uy, uz, r):
     """``planting._heel_needed`` of one foot: the ball ``b`` from the hip, the ankle ``a`` from the ball, the heel
     axis ``u`` (world), the leg's reach ``r``."""
@@ -420,15 +442,21 @@ def reach(hips, rises, targets, wanted, dt, tip, axis, reach_, max_drop, k_, sta
     """``FootPlanter.reach_reference``: heels lifted, each creature's root drop (``state[15]``) and free feet
     brought within reach, ``targets (C, L, 3)`` and ``wanted (C, L, 3, 3)`` in place; ``max_drop``: ``ik.MAX_DROP``
     times the shortest ``reach_``."""
+    buf = np.empty(3 * 3 + 2 * 9)
+    loose = np.empty(hips.shape[1], dtype=np.bool_)
+    _reach(hips, rises, targets, wanted, dt, tip, axis, reach_, max_drop, k_, state, buf, loose)
+
+
+@njit(cache=True, _nrt=False)
+def _reach(hips, rises, targets, wanted, dt, tip, axis, reach_, max_drop, k_, state, buf, loose):
+    """:func:`reach` in its working arrays ``buf`` and ``loose (L,)`` (not counted: see ``_frame_kernel``)."""
     mode, turn, spent, drop, heel = state[0], state[1], state[7], state[15], state[16]
     n_l = hips.shape[1]
-    buf = np.empty(3 * 3 + 2 * 9)
     arm, at = carve(buf, 0, (3,))
     hip, at = carve(buf, at, (3,))
     u, at = carve(buf, at, (3,))
     rot, at = carve(buf, at, (3, 3))
     tmp, at = carve(buf, at, (3, 3))
-    loose = np.empty(n_l, dtype=np.bool_)
     for c in range(len(drop)):
         fade = math.exp(-k_[_FADE] * dt[c])
         need_drop = -np.inf
@@ -484,7 +512,6 @@ def reach(hips, rises, targets, wanted, dt, tip, axis, reach_, max_drop, k_, sta
                 targets[c, i, 0] = hips[c, i, 0] + dx + arm[0]
                 targets[c, i, 1] = hy + dy + arm[1]
                 targets[c, i, 2] = hips[c, i, 2] + dz + arm[2]
-    keep(buf)  # its carved views are borrowed
 
 
 @njit(cache=True)

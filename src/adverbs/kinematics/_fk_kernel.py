@@ -11,7 +11,7 @@ from __future__ import annotations
 from numba import njit
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def forward(parents, rotations, translations, positions, global_rotations):  # pragma: no cover - compiled
     """``rotations (N, J, 4)``, ``translations (N, J, 3)`` local → ``positions``, ``global_rotations`` (filled)."""
     n, j = rotations.shape[0], rotations.shape[1]

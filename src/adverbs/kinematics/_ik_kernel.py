@@ -28,7 +28,7 @@ def _quat_to_mat(q, m):
     m[2, 2] = 1 - 2 * (x * x + y * y)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _mat_to_quat(m, q):
     t0, t1, t2 = m[0, 0], m[1, 1], m[2, 2]
     tr = t0 + t1 + t2

@@ -13,6 +13,16 @@ slerp blend, the spring, FK), creature by creature, so a frame equals the refere
 :class:`~adverbs.runtime.frame.FramePass` runs its own range of them (the kernel releases the GIL), chunk by
 chunk, and the results do not depend on how many threads run them.
 
+**No reference counting per creature.** The functions run once or more per creature (:func:`_creature`,
+:func:`_advance`, :func:`_base`, :func:`_start`, :func:`_finish`, :func:`_arms_take`) are compiled without numba's
+reference counting (``_nrt=False``): they allocate nothing, and every array they see is one their caller keeps
+alive (the pass's held arrays, borrowed: ``_borrow_kernel``; a chunk's working buffer: ``_scratch_kernel``). With
+it, numba counted each of the hundred-odd arrays in their arguments in and out at every call and every view taken
+(calls to ``NRT_incref``/``NRT_decref`` on null meminfos, about a thousand call sites in :func:`_creature`): without
+it 10,000 Bandai creatures on one thread took 10-12 µs each unplanted and 16-18 planted, now 6.4 and 11.7
+(``benchmarks/crowd.py``, session 53). A function added here that allocates must keep the counting (numba refuses
+to compile ``np.empty`` without it).
+
 What stays in Python (:mod:`adverbs.runtime.frame`) is discrete: commands, the queue (a transition popped
 when one starts, drawn by likelihood when it empties), latencies, and the verbs' cached weights and keytimes
 brought up to date when the adverbs move. The kernel marks in ``events`` which creatures started (1) or
@@ -155,7 +165,7 @@ def _place(c, verbs, caches, state):  # pragma: no cover - compiled
     g_into[c] = _generic_of(cb0 + b * run, into[c], 1, c, verbs, caches)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _start(c, late, k, verbs, transitions, caches, state, k_):  # pragma: no cover - compiled
     """``queue._start``: creature ``c`` starts transition ``k``; ``late``: seconds of this frame left after its region
     began. (Python pops it off the queue afterwards.)"""
@@ -200,7 +210,7 @@ def _start(c, late, k, verbs, transitions, caches, state, k_):  # pragma: no cov
         state[25][c], state[26][c] = True, length[c]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _finish(c, verbs, state):  # pragma: no cover - compiled
     """``queue._finish`` without the queue (Python settles it): B plays on alone."""
     verb, g, into, g_into, active = state[0], state[1], state[2], state[3], state[4]
@@ -214,7 +224,7 @@ def _finish(c, verbs, state):  # pragma: no cover - compiled
     active[c], into[c] = -1, -1
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _advance(c, dt, verbs, transitions, caches, state, head, events, g_settle, k_):  # pragma: no cover - compiled
     """``player._advance`` for creature ``c``: its times moved on by ``dt``, transitions started and finished."""
     verb, g, active, beta, length = state[0], state[1], state[4], state[5], state[6]
@@ -277,7 +287,7 @@ def _blend_weight(beta):  # pragma: no cover - compiled
     return 0.5 * math.cos(min(max(beta, 0.0), 1.0) * np.pi) + 0.5
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _base(c, ga, gb, verbs, caches, state, d_a, d_b, vel, blend):  # pragma: no cover - compiled
     """``player._sample`` of one creature at A's and B's generic times: DOFs into ``d_a``, ``d_b``, the blended root
     velocities into ``vel (3,)``; returns A's blend weight ``α`` (1 alone, 0 inertial)."""
@@ -410,7 +420,7 @@ def _carry_limit(c, verbs, caches, state):  # pragma: no cover - compiled
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, buffers, outputs, k_,
               scratch):  # pragma: no cover  # fmt: skip
     """``player._step`` for creature ``c``: its pose (not yet planted) into ``buffers``' new rows, its state moved on."""
@@ -575,7 +585,7 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
         held_before[c, i] = held[c, i]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _arms_take(c, dt, has_before, x0, z0, h0, verbs, caches, state, arms, shown_rot, before_rot, e_b, rot_b, rot0,
                trans0, r1, r2, blend):  # pragma: no cover  # fmt: skip
     """``player._arms``'s taking of creature ``c``'s arms' offset (a frame now and then: not inlined), from the pose
