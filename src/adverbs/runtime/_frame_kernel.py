@@ -18,10 +18,12 @@ chunk, and the results do not depend on how many threads run them.
 reference counting (``_nrt=False``): they allocate nothing, and every array they see is one their caller keeps
 alive (the pass's held arrays, borrowed: ``_borrow_kernel``; a chunk's working buffer: ``_scratch_kernel``). With
 it, numba counted each of the hundred-odd arrays in their arguments in and out at every call and every view taken
-(calls to ``NRT_incref``/``NRT_decref`` on null meminfos, about a thousand call sites in :func:`_creature`): without
-it 10,000 Bandai creatures on one thread took 10-12 µs each unplanted and 16-18 planted, now 6.4 and 11.7
-(``benchmarks/crowd.py``, session 53). A function added here that allocates must keep the counting (numba refuses
-to compile ``np.empty`` without it).
+(calls to ``NRT_incref``/``NRT_decref`` on null meminfos, about a thousand call sites in :func:`_creature`). The
+planter's per-creature loops (``_planting_kernel._advance``, ``_reach`` and its per-foot helpers) and FK's
+``forward`` are compiled so too. With the counting, 10,000 Bandai creatures on one thread took 10-12 µs each
+unplanted and 16-18 planted; without it 5.2-5.4 and 9.8-11.2 (session 53; ``benchmarks/crowd.py`` in the README).
+A function added here that allocates, or copies a slice (which may allocate a temporary), must keep the counting:
+numba refuses to compile it without.
 
 What stays in Python (:mod:`adverbs.runtime.frame`) is discrete: commands, the queue (a transition popped
 when one starts, drawn by likelihood when it empties), latencies, and the verbs' cached weights and keytimes
