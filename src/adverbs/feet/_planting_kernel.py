@@ -26,7 +26,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .._scratch_kernel import carve, keep
+from .._scratch_kernel import carve
 from ..kinematics._fk_kernel import forward
 from ..kinematics._ik_kernel import _mat_to_quat, _mm, _mv, _quat_to_mat, _rotation, solve_batch
 from ..motion import _pose_kernel
@@ -244,7 +244,7 @@ def _land(c, i, point, height, floor, state):
     settle[c, i] = True
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=True)  # allocates: not the no-counting of a caller compiled without it
 def advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, examples_in, use_phases, dt, start, times,
             cyclic, verb_floor, legs, k_, floor, state, shown_out, wanted_out):  # fmt: skip
     """``FootPlanter.targets_reference``: every creature's effectors advanced by one frame (``state`` in place);
@@ -437,7 +437,7 @@ def _heel_needed(bx, by, bz, ax, ay, az, ux, uy, uz, r):
     return max(cross - start, 0.0)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=True)  # allocates: not the no-counting of a caller compiled without it
 def reach(hips, rises, targets, wanted, dt, tip, axis, reach_, max_drop, k_, state):
     """``FootPlanter.reach_reference``: heels lifted, each creature's root drop (``state[15]``) and free feet
     brought within reach, ``targets (C, L, 3)`` and ``wanted (C, L, 3, 3)`` in place; ``max_drop``: ``ik.MAX_DROP``
@@ -514,7 +514,7 @@ def _reach(hips, rises, targets, wanted, dt, tip, axis, reach_, max_drop, k_, st
                 targets[c, i, 2] = hips[c, i, 2] + dz + arm[2]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=True)  # allocates: not the no-counting of a caller compiled without it
 def step(parents, rotations, translations, generic, inside_in, turn_in, swing_in, examples_in, use_phases, dt, start,
          times, cyclic, verb_floor, tips, root, legs, k_, floor, state, chain, ik_params, out):  # fmt: skip
     """``FootPlanter.step_reference`` of ``C`` creatures' poses ``rotations (C, J, 4)``, ``translations (C, J, 3)``,
@@ -527,13 +527,21 @@ def step(parents, rotations, translations, generic, inside_in, turn_in, swing_in
     root_drop, residual)``: FK, the planter's targets and orientations, the IK's root drop and misses.
     Returns whether every target is finite (if not, the IK is not run).
     """
+    buf = np.empty(rotations.shape[0] * (24 * len(tips) + 1))
+    return _step(parents, rotations, translations, generic, inside_in, turn_in, swing_in, examples_in, use_phases, dt,
+                 start, times, cyclic, verb_floor, tips, root, legs, k_, floor, state, chain, ik_params, out, buf)  # fmt: skip
+
+
+@njit(cache=True, _nrt=False)
+def _step(parents, rotations, translations, generic, inside_in, turn_in, swing_in, examples_in, use_phases, dt, start,
+          times, cyclic, verb_floor, tips, root, legs, k_, floor, state, chain, ik_params, out, buf):  # fmt: skip
+    """:func:`step` in its working array ``buf`` (not counted: see ``runtime._frame_kernel``)."""
     above, upper, middle, end, hinge, upper_offset, end_offset, reach_ = chain
     min_flex, iterations, lam2, max_step, converged, max_drop = ik_params
     gpos, grot, targets, wanted, root_drop, residual = out
     tip, drop = legs[3], state[15]
     n_c, n_l = rotations.shape[0], len(tips)
     forward(parents, rotations, translations, gpos, grot)
-    buf = np.empty(n_c * (24 * n_l + 1))
     free_pos, at = carve(buf, 0, (n_c, n_l, 3))
     free_rot, at = carve(buf, at, (n_c, n_l, 3, 3))
     hips, at = carve(buf, at, (n_c, n_l, 3))
@@ -541,8 +549,9 @@ def step(parents, rotations, translations, generic, inside_in, turn_in, swing_in
     rises, at = carve(buf, at, (n_c,))
     for c in range(n_c):
         for i in range(n_l):
-            free_pos[c, i] = gpos[c, tips[i]]
-            hips[c, i] = gpos[c, upper[i]]
+            for a in range(3):
+                free_pos[c, i, a] = gpos[c, tips[i], a]
+                hips[c, i, a] = gpos[c, upper[i], a]
             _quat_to_mat(grot[c, end[i]], free_rot[c, i])
     advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, examples_in, use_phases, dt, start, times,
             cyclic, verb_floor, legs, k_, floor, state, targets, wanted)  # fmt: skip
@@ -562,10 +571,11 @@ def step(parents, rotations, translations, generic, inside_in, turn_in, swing_in
         root_drop[c] = drop[c]
         for i in range(n_l):
             _mmt(wanted[c, i], free_rot[c, i], tilts[c, i])
-    for x in targets.flat:
-        if not math.isfinite(x):
-            return False  # ik.solve refuses these
+    for c in range(n_c):
+        for i in range(n_l):
+            for a in range(3):
+                if not math.isfinite(targets[c, i, a]):
+                    return False  # ik.solve refuses these
     solve_batch(rotations, translations, targets, tilts, above, upper, middle, end, hinge, upper_offset,
                 end_offset, tip, reach_, min_flex, iterations, lam2, max_step, converged, max_drop, root_drop, residual)  # fmt: skip
-    keep(buf)  # its carved views are borrowed
     return True

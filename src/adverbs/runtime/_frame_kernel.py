@@ -13,17 +13,22 @@ slerp blend, the spring, FK), creature by creature, so a frame equals the refere
 :class:`~adverbs.runtime.frame.FramePass` runs its own range of them (the kernel releases the GIL), chunk by
 chunk, and the results do not depend on how many threads run them.
 
-**No reference counting per creature.** The functions run once or more per creature (:func:`_creature`,
-:func:`_advance`, :func:`_base`, :func:`_start`, :func:`_finish`, :func:`_arms_take`) are compiled without numba's
-reference counting (``_nrt=False``): they allocate nothing, and every array they see is one their caller keeps
-alive (the pass's held arrays, borrowed: ``_borrow_kernel``; a chunk's working buffer: ``_scratch_kernel``). With
+**No reference counting per creature.** The functions run once or more per creature or chunk (:func:`_creature`,
+:func:`_advance`, :func:`_base`, :func:`_start`, :func:`_finish`, :func:`_arms_take`, :func:`_chunk`, :func:`_plant`)
+are compiled without numba's reference counting (``_nrt=False``): they allocate nothing, and every array they see
+is one their caller keeps alive (the pass's held arrays, borrowed: ``_borrow_kernel``; the working buffer
+:func:`_frame` allocates once a call and carves: ``_scratch_kernel``). With
 it, numba counted each of the hundred-odd arrays in their arguments in and out at every call and every view taken
 (calls to ``NRT_incref``/``NRT_decref`` on null meminfos, about a thousand call sites in :func:`_creature`). The
 planter's per-creature loops (``_planting_kernel._advance``, ``_reach`` and its per-foot helpers) and FK's
 ``forward`` are compiled so too. With the counting, 10,000 Bandai creatures on one thread took 10-12 µs each
 unplanted and 16-18 planted; without it 5.2-5.4 and 9.8-11.2 (session 53; ``benchmarks/crowd.py`` in the README).
 A function added here that allocates, or copies a slice (which may allocate a temporary), must keep the counting:
-numba refuses to compile it without.
+numba refuses to compile it without. numba passes the flag on to the functions they call that do not set their
+own, so the planter's and the IK's functions that allocate say ``_nrt=True``; and no function they call uncounted
+may return an array (its caller would count the view it did not). numba's cache keys a compiled function by its
+signature, not this flag: a function compiled without counting may be loaded where counting is on, which is the
+same for one that allocates nothing and returns no array.
 
 What stays in Python (:mod:`adverbs.runtime.frame`) is discrete: commands, the queue (a transition popped
 when one starts, drawn by likelihood when it empties), latencies, and the verbs' cached weights and keytimes
@@ -629,9 +634,9 @@ def _arms_show(t, length, arms_rot, arms_vel, arms, rot):  # pragma: no cover - 
 
 
 @njit(cache=True, inline="always")
-def _scratch(buf, n_d, n_j, n_l):  # pragma: no cover - compiled
+def _scratch(buf, hb, n_d, n_j, n_l):  # pragma: no cover - compiled
     """One chunk's working arrays (see :func:`_creature`), carved from ``buf`` (:func:`_scratch_size` long, kept
-    alive by the caller)."""
+    alive by the caller), and ``hb (L,)``, the caller's."""
     d_a, at = carve(buf, 0, (n_d,))
     d_b, at = carve(buf, at, (n_d,))
     e_a, at = carve(buf, at, (n_d,))
@@ -656,7 +661,7 @@ def _scratch(buf, n_d, n_j, n_l):  # pragma: no cover - compiled
     rot_b0, at = carve(buf, at, (n_j, 4))
     trans_b0, at = carve(buf, at, (n_j, 3))
     return (
-        d_a, d_b, e_a, e_b, vel, vel0, r1, r2, blend, rot_b, trans_b, rot0, trans0, np.empty(n_l, dtype=np.bool_), rb, sb,
+        d_a, d_b, e_a, e_b, vel, vel0, r1, r2, blend, rot_b, trans_b, rot0, trans0, hb, rb, sb,
         wts, now_pos, now_rot, was_pos, was_rot, xb, rot_b0, trans_b0,
     )  # fmt: skip
 
@@ -667,15 +672,15 @@ def _scratch_size(n_d, n_j, n_l):  # pragma: no cover - compiled
     return 4 * n_d + 4 * 3 + 4 + 35 * n_j + 4 * n_l
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _chunk(lo, hi, dt, flags, verbs, transitions, skeleton, caches, state, head, buffers, outputs, k_, n_d,
-           planted):  # pragma: no cover  # fmt: skip
-    """Creatures ``lo`` to ``hi``: :func:`_creature` for each, their poses copied into ``planted = (rot, trans)``."""
+           planted, buf, hb):  # pragma: no cover  # fmt: skip
+    """Creatures ``lo`` to ``hi``: :func:`_creature` for each, their poses copied into ``planted = (rot, trans)``;
+    ``buf`` (:func:`_scratch_size` long) and ``hb (L,)``: the working arrays, the caller's."""
     rot, trans = buffers[0], buffers[1]
     out_rot, out_trans = planted
     n_j, n_l = rot.shape[1], skeleton[1].shape[0]
-    buf = np.empty(_scratch_size(n_d, n_j, n_l))
-    scratch = _scratch(buf, n_d, n_j, n_l)
+    scratch = _scratch(buf, hb, n_d, n_j, n_l)
     time = state[8]
     for c in range(lo, hi):
         time[c] += dt  # (player.step: state.time += dt)
@@ -685,7 +690,6 @@ def _chunk(lo, hi, dt, flags, verbs, transitions, skeleton, caches, state, head,
                 out_rot[c, j, a] = rot[c, j, a]
             for a in range(3):
                 out_trans[c, j, a] = trans[c, j, a]
-    keep(buf)  # its carved views are borrowed
 
 
 @njit(cache=True, nogil=True)
@@ -716,14 +720,18 @@ def _frame(lo, hi, dt, flags, turns, held, feet):  # pragma: no cover - compiled
     new, shown, before = poses[turns[0]], poses[turns[1]], poses[turns[2]]
     buffers = (new[0], new[1], new[2], shown[0], shown[1], before[0], before[1], shown[2])
     planted = planted_sets[turns[3]]
+    n_l = skeleton[1].shape[0]
+    buf, hb = np.empty(_scratch_size(n_d, new[0].shape[1], n_l)), np.empty(n_l, dtype=np.bool_)
     finite = True
     for start in range(lo, hi, chunk):
         stop = min(start + chunk, hi)
         _chunk(start, stop, dt, flags[:4], verbs, transitions, skeleton, caches, state, head, buffers, outputs, k_,
-               n_d, planted)  # fmt: skip
+               n_d, planted, buf, hb)  # fmt: skip
         if feet is not None:
             mix = (state[0], state[2], state[4], state[5], state[9])  # verb, into, active, beta, inertial
-            finite = _plant(start, stop, dt, outputs, planted, feet, flags[4], k_, mix) and finite
+            finite = _plant(start, stop, dt, outputs, planted, borrowed_box(feet), flags[4], k_, mix) and finite
+    keep(buf)  # _chunk carves it: kept to the last chunk
+    keep(hb)
     events = outputs[4]
     n_events = 0
     for c in range(lo, hi):
@@ -752,14 +760,15 @@ def _level(levels, c, i, a, b, alpha):  # pragma: no cover - compiled
     return alpha * levels[c, i, a] + (1.0 - alpha) * levels[c, i, b]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _plant(lo, hi, dt, outputs, planted, feet, start, k_, mix):  # pragma: no cover - compiled
     """``planted.plant`` for creatures ``lo`` to ``hi``: the planter's kernel on their poses (in place), then which feet
     to re-place (``GraphFeet``). ``start``: the planter's first frame; ``dt``: its step, every creature's; ``mix``:
-    the state's verb, into, active, beta and inertial (the verbs shown, for each foot's contact level)."""
+    the state's verb, into, active, beta and inertial (the verbs shown, for each foot's contact level). ``feet``: the
+    planter's held arrays, borrowed (:func:`_frame` takes them out of their ``Held``: not without counting)."""
     held, roll, swing, kinds, lifts = outputs[0], outputs[1], outputs[2], outputs[3], outputs[6]
     (parents, generic, inside, dts, times, cyclic, verb_floor, tips, root, legs, constants, floor, st, chain,
-     ik_params, scratch, drop, residual, replanting, levels, hover0, level0) = borrowed_box(feet)  # fmt: skip
+     ik_params, scratch, drop, residual, replanting, levels, hover0, level0) = feet  # fmt: skip
     rot, trans = planted
     n_l = held.shape[1]
     mode, offset, offset_vel, since, settle, hover = st[0], st[4], st[5], st[6], st[11], st[12]
