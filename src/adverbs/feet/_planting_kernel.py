@@ -28,7 +28,7 @@ from numba import njit
 
 from .._scratch_kernel import carve
 from ..kinematics._fk_kernel import forward
-from ..kinematics._ik_kernel import _mat_to_quat, _mm, _mv, _quat_to_mat, _rotation, solve_batch
+from ..kinematics._ik_kernel import _copy33, _mat_to_quat, _mm, _mv, _quat_to_mat, _rotation, solve_batch
 from ..motion import _pose_kernel
 from ._planting_scalars import hold_mode as _hold_mode
 from ._planting_scalars import smoothstep as _smoothstep
@@ -95,15 +95,6 @@ def _tilt(floor, x, z, out):
 
 
 # ----- rotations: kinematics.quat ------------------------------------------------------------------------
-
-
-@njit(cache=True, inline="always")
-def _copy33(a, out):
-    """``out[:] = a`` of two 3×3 matrices, element by element: a slice copy may allocate a temporary, which the
-    functions compiled without reference counting cannot (see ``runtime._frame_kernel``)."""
-    for i in range(3):
-        for j in range(3):
-            out[i, j] = a[i, j]
 
 
 @njit(cache=True, _nrt=False)

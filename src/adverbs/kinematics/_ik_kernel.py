@@ -11,7 +11,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .._scratch_kernel import carve, keep
+from .._scratch_kernel import carve
 
 
 @njit(cache=True, inline="always")
@@ -60,6 +60,15 @@ def _mat_to_quat(m, q):
 
 
 @njit(cache=True, inline="always")
+def _copy33(a, out):
+    """``out[:] = a`` of two 3×3 matrices, element by element: a slice copy may allocate a temporary, which the
+    functions compiled without reference counting cannot (see ``runtime._frame_kernel``)."""
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = a[i, j]
+
+
+@njit(cache=True, inline="always")
 def _mm(a, b, out):
     for i in range(3):
         for j in range(3):
@@ -100,8 +109,20 @@ def solve_batch(
     rot, trans, targets, tilts, above, upper, middle, end, hinge, o_u, o_e, tip, reach, min_flex,
     iterations, lam2, max_step, converged, max_drop, drop_out, resid_out,
 ):  # fmt: skip
+    buf = np.empty(7 * 9 + 6 * 3 + len(end) * 33)
+    _solve_batch(
+        rot, trans, targets, tilts, above, upper, middle, end, hinge, o_u, o_e, tip, reach, min_flex, iterations, lam2,
+        max_step, converged, max_drop, drop_out, resid_out, buf,
+    )  # fmt: skip
+
+
+@njit(cache=True, _nrt=False)
+def _solve_batch(
+    rot, trans, targets, tilts, above, upper, middle, end, hinge, o_u, o_e, tip, reach, min_flex,
+    iterations, lam2, max_step, converged, max_drop, drop_out, resid_out, buf,
+):  # fmt: skip
+    """:func:`solve_batch` in its working array ``buf`` (not counted: see ``runtime._frame_kernel``)."""
     n_legs = len(end)
-    buf = np.empty(7 * 9 + 6 * 3 + n_legs * 33)
     g, at = carve(buf, 0, (3, 3))
     outer, at = carve(buf, at, (3, 3))
     tmp, at = carve(buf, at, (3, 3))
@@ -125,16 +146,18 @@ def solve_batch(
         g[0, 0] = g[1, 1] = g[2, 2] = 1.0
         p[:] = 0.0
         for j in above:
-            outer[:] = g
+            _copy33(g, outer)
             _mv(g, trans[b, j], v3)
-            p += v3
+            for a in range(3):
+                p[a] += v3[a]
             _quat_to_mat(rot[b, j], rj)
             _mm(g, rj, tmp)
-            g[:] = tmp
+            _copy33(tmp, g)
         drop = max(drop_out[b], 0.0)  # comes in holding the smallest drop asked for
         for i in range(n_legs):
             _mv(g, trans[b, upper[i]], v3)
-            hips[i] = p + v3
+            for a in range(3):
+                hips[i, a] = p[a] + v3[a]
             _quat_to_mat(rot[b, upper[i]], l_u[i])
             _quat_to_mat(rot[b, middle[i]], l_m[i])
             _quat_to_mat(rot[b, end[i]], rj)
@@ -144,9 +167,10 @@ def solve_batch(
             if tilts.shape[0] > 0:
                 _mm(tilts[b, i], tmp, wanted[i])
             else:
-                wanted[i] = tmp
+                _copy33(tmp, wanted[i])
             _mv(wanted[i], tip[i], v3)
-            goals[i] = targets[b, i] - v3
+            for a in range(3):
+                goals[i, a] = targets[b, i, a] - v3[a]
             dx, dy, dz = goals[i, 0] - hips[i, 0], goals[i, 1] - hips[i, 1], goals[i, 2] - hips[i, 2]
             horizontal = math.sqrt(dx * dx + dz * dz)
             if horizontal < reach[i]:
@@ -167,7 +191,8 @@ def solve_batch(
             for _ in range(iterations):
                 _mv(l_m[i], o_e[i], shin)
                 _mv(g_u, o_u[i], v3)
-                knee[:] = hips[i] + v3
+                for a in range(3):
+                    knee[a] = hips[i, a] + v3[a]
                 _mv(g_u, shin, leg)
                 rx = goals[i, 0] - knee[0] - leg[0]
                 ry = goals[i, 1] - knee[1] - leg[1]
@@ -200,14 +225,15 @@ def solve_batch(
                 if angle >= 1e-12:
                     _rotation(sx / angle, sy / angle, sz / angle, angle, step)
                     _mm(step, g_u, tmp)
-                    g_u[:] = tmp
+                    _copy33(tmp, g_u)
                 # knee about its hinge, flexion kept at or above min_flex
                 turn = max(flex + ks, min_flex) - flex
                 _rotation(hx, hy, hz, turn, step)
                 _mm(step, l_m[i], tmp)
-                l_m[i] = tmp
+                _copy33(tmp, l_m[i])
             _mv(l_m[i], o_e[i], shin)
-            shin += o_u[i]
+            for a in range(3):
+                shin[a] += o_u[i, a]
             _mv(g_u, shin, v3)
             dx, dy, dz = (
                 goals[i, 0] - hips[i, 0] - v3[0],
@@ -221,4 +247,3 @@ def solve_batch(
             _mm(g_u, l_m[i], tmp)
             _mtm(tmp, wanted[i], tmp2)
             _mat_to_quat(tmp2, rot[b, end[i]])
-    keep(buf)  # its carved views are borrowed

@@ -20,7 +20,8 @@ is one their caller keeps alive (the pass's held arrays, borrowed: ``_borrow_ker
 :func:`_frame` allocates once a call and carves: ``_scratch_kernel``). With
 it, numba counted each of the hundred-odd arrays in their arguments in and out at every call and every view taken
 (calls to ``NRT_incref``/``NRT_decref`` on null meminfos, about a thousand call sites in :func:`_creature`). The
-planter's per-creature loops (``_planting_kernel._advance``, ``_reach`` and its per-foot helpers) and FK's
+planter's per-creature loops (``_planting_kernel._step``, ``_advance``, ``_reach`` and its per-foot helpers), the
+IK's (``_ik_kernel._solve_batch``, whose array expressions allocated a temporary per leg and iteration) and FK's
 ``forward`` are compiled so too. With the counting, 10,000 Bandai creatures on one thread took 10-12 µs each
 unplanted and 16-18 planted; without it 5.2-5.4 and 9.8-11.2 (session 53; ``benchmarks/crowd.py`` in the README).
 A function added here that allocates, or copies a slice (which may allocate a temporary), must keep the counting:
