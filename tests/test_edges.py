@@ -90,15 +90,17 @@ def _windows(perf, graph, pairs):
 
 
 def _settled(perf, graph, windows):
-    """``windows`` ``(source, target, a, b)`` in order, each with the verbs it is measured against besides its own and
-    which of ``windows`` it is part of: ``(source, target, a, b, verbs, k)``. A transition's window runs on for half a second after it ends, where its
-    landing settles, unless the next transition starts first; the frames of that half second the next window takes
-    are the earlier transition's landing still, and are measured against both transitions' verbs (a window of their
-    own, named as the later one's). What a frame shows (a joint's speed, the root's acceleration) is measured part by
-    part; what a span shows (a toe's travel, the hips' range) over the whole window, as before. (Every Bandai stop blends into the whole stand, which is then at its end and
-    past the start of its loop's region: the stand's loop into itself starts the frame after the stop ends. The
-    stop's trailing foot, let go once the other has landed, lands in it 0.2-0.3 s later, its knee at 230 deg/s where
-    the stand's own legs turn at 10: measured against the stand alone, 22x.)"""
+    """``windows`` ``(source, target, a, b)`` in order, each with the verbs it is measured against besides its own
+    and which of ``windows`` it is part of: ``(source, target, a, b, verbs, k)``.
+
+    A transition's window runs on for half a second after it ends, where its landing settles, unless the next
+    transition starts first; the frames of that half second the next window takes are the earlier transition's
+    landing still, and are measured against both transitions' verbs (a window of their own, named as the later
+    one's). What a frame shows (a joint's speed, the root's acceleration) is measured part by part; what a span
+    shows (a toe's travel, the hips' range) over the whole window, as before. (Every Bandai stop blends into the
+    whole stand, which is then at its end and past the start of its loop's region: the stand's loop into itself
+    starts the frame after the stop ends. The stop's trailing foot, let go once the other has landed, lands in it
+    0.2-0.3 s later, its knee at 230 deg/s where the stand's own legs turn at 10: against the stand alone, 22x.)"""
     out, settles, last = [], 0, None
     for k, (s, t, a, b) in enumerate(windows):
         if last is not None and a < settles:

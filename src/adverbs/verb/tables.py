@@ -323,9 +323,14 @@ class Verb:
         laps = np.stack([samples + lap * shift[:, None] for lap in (-1, 0, 1)])
         rot, trans = self.encoding.decode_pose(laps, np.zeros(3))
         pos, _ = forward_kinematics(self.skeleton.parents, rot, trans)
-        tips = [self.skeleton.index(c.effector) for c in self.constraints]
-        heights = np.array([np.nan if h.height is None else h.height for h in self.holds])
+        tips, heights = self._effectors
         return _frozen(pos[..., tips, 1] - self.floor - heights)
+
+    @cached_property
+    def _effectors(self) -> tuple[list[int], np.ndarray]:
+        """Each hold's effector joint and its contact height (NaN: an effector that keeps the verb's height)."""
+        tips = [self.skeleton.index(c.effector) for c in self.constraints]
+        return tips, _frozen(np.array([np.nan if h.height is None else h.height for h in self.holds]))
 
     def contact_levels(self, points: np.ndarray) -> np.ndarray:
         """Each foot's contact level ``(C, L)`` at adverb points ``(C, A)``: the lowest its effector comes over its
@@ -357,11 +362,10 @@ class Verb:
         dofs = sampling.generic_dofs(self, w, np.repeat(np.arange(c), n_l * LEVEL_SAMPLES), t.reshape(-1))
         rot, trans = self.encoding.decode_pose(dofs, np.zeros(3))
         parents = self.skeleton.parents
-        tips = [self.skeleton.index(x.effector) for x in self.constraints]
+        tips, heights = self._effectors
         chain = sorted({a for j in tips for a in self.skeleton.ancestors(j)})  # FK of the root-to-feet joints alone
         at = {j: i for i, j in enumerate(chain)}
         pos, _ = forward_kinematics(np.array([at.get(parents[j], -1) for j in chain]), rot[:, chain], trans[:, chain])
-        heights = np.array([np.nan if h.height is None else h.height for h in self.holds])
         y = pos[:, [at[j] for j in tips], 1].reshape(c, n_l, LEVEL_SAMPLES, n_l)  # each foot's own: [:, l, :, l]
         own = np.stack([y[:, i, :, i] for i in range(n_l)], axis=1)  # (C, L, K)
         return own.min(axis=-1) - self.floor - heights
