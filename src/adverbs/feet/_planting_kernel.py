@@ -235,7 +235,7 @@ def _land(c, i, point, height, floor, state):
     settle[c, i] = True
 
 
-@njit(cache=True, _nrt=True)  # allocates: not the no-counting of a caller compiled without it
+@njit(cache=True, _nrt=True)  # allocates: counts even when its caller is compiled without counting
 def advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, examples_in, use_phases, dt, start, times,
             cyclic, verb_floor, legs, k_, floor, state, shown_out, wanted_out):  # fmt: skip
     """``FootPlanter.targets_reference``: every creature's effectors advanced by one frame (``state`` in place);
@@ -428,7 +428,7 @@ def _heel_needed(bx, by, bz, ax, ay, az, ux, uy, uz, r):
     return max(cross - start, 0.0)
 
 
-@njit(cache=True, _nrt=True)  # allocates: not the no-counting of a caller compiled without it
+@njit(cache=True, _nrt=True)  # allocates: counts even when its caller is compiled without counting
 def reach(hips, rises, targets, wanted, dt, tip, axis, reach_, max_drop, k_, state):
     """``FootPlanter.reach_reference``: heels lifted, each creature's root drop (``state[15]``) and free feet
     brought within reach, ``targets (C, L, 3)`` and ``wanted (C, L, 3, 3)`` in place; ``max_drop``: ``ik.MAX_DROP``
@@ -505,7 +505,7 @@ def _reach(hips, rises, targets, wanted, dt, tip, axis, reach_, max_drop, k_, st
                 targets[c, i, 2] = hips[c, i, 2] + dz + arm[2]
 
 
-@njit(cache=True, _nrt=True)  # allocates: not the no-counting of a caller compiled without it
+@njit(cache=True, _nrt=True)  # allocates: counts even when its caller is compiled without counting
 def step(parents, rotations, translations, generic, inside_in, turn_in, swing_in, examples_in, use_phases, dt, start,
          times, cyclic, verb_floor, tips, root, legs, k_, floor, state, chain, ik_params, out):  # fmt: skip
     """``FootPlanter.step_reference`` of ``C`` creatures' poses ``rotations (C, J, 4)``, ``translations (C, J, 3)``,

@@ -104,7 +104,7 @@ def _rotation(ax, ay, az, angle, out):
     out[2, 2] = 1.0 + c * (-ay * ay - ax * ax)
 
 
-@njit(cache=True, _nrt=True)  # allocates: not the no-counting of a caller compiled without it
+@njit(cache=True, _nrt=True)  # allocates: counts even when its caller is compiled without counting
 def solve_batch(
     rot, trans, targets, tilts, above, upper, middle, end, hinge, o_u, o_e, tip, reach, min_flex,
     iterations, lam2, max_step, converged, max_drop, drop_out, resid_out,
