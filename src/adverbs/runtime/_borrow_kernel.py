@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from numba import njit, types
 from numba.core import cgutils
+from numba.core.runtime import nrtdynmod
 from numba.experimental import structref
 from numba.extending import intrinsic
 
@@ -73,6 +74,17 @@ def _strip(context, builder, ty, value):
     return value
 
 
+def _data(context, builder, ty, value):
+    """The payload of structref ``value`` of type ``ty``: ``structref._Utils.get_data_struct``, its meminfo's data
+    pointer read as ``NRT_MemInfo_data_fast`` reads it (the fourth word), which needs no reference counting (a function
+    compiled without it may read a ``Held`` it is given)."""
+    meminfo = structref._Utils(context, builder, ty).get_struct_ref(value).meminfo
+    info = builder.bitcast(meminfo, nrtdynmod._meminfo_struct_type.as_pointer())
+    data = builder.load(cgutils.gep(builder, info, 0, 3))
+    payload = context.data_model_manager[ty.get_data_type()].get_value_type()
+    return cgutils.create_struct_proxy(ty.get_data_type())(context, builder, ref=builder.bitcast(data, payload.as_pointer()))
+
+
 @intrinsic
 def borrowed_box(typingctx, held):  # pragma: no cover - compiled
     """The box of ``held`` with every array's meminfo null, read from the structref without counting its arrays in
@@ -80,7 +92,6 @@ def borrowed_box(typingctx, held):  # pragma: no cover - compiled
     box = held.field_dict["box"]
 
     def codegen(context, builder, signature, args):
-        data = structref._Utils(context, builder, signature.args[0]).get_data_struct(args[0])
-        return _strip(context, builder, box, data.box)
+        return _strip(context, builder, box, _data(context, builder, signature.args[0], args[0]).box)
 
     return box(held), codegen

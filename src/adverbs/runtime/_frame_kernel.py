@@ -87,6 +87,35 @@ FREE, BALL = 0, 2  # planting.FREE, planting.BALL
 
 
 @njit(cache=True, inline="always")
+def _held(hbox):  # pragma: no cover - compiled
+    """What a creature's functions read of the pass's held arrays (:func:`frame`'s ``box``), borrowed: ``(verbs,
+    transitions, skeleton, caches, state, head, outputs, k_)``. They are given the ``Held`` itself, one pointer, and
+    read the arrays they use from it: given the tuples, each call copied some 1,500 words of array structures onto
+    the stack (a sixth of a frame)."""
+    box = borrowed_box(hbox)
+    return box[0], box[1], box[2], box[3], box[4], box[5], box[7], box[8]
+
+
+@njit(cache=True, inline="always")
+def _buffers(hbox, turns):  # pragma: no cover - compiled
+    """The pose buffers of a frame by ``turns`` (see :func:`frame`): ``(rot, trans, vel)`` new, rotations and
+    translations shown, shown before, velocities shown (what :func:`_creature` calls ``buffers``); and the planted pair
+    written, ``(rot, trans)``."""
+    box = borrowed_box(hbox)
+    poses, planted = box[6], box[11]
+    new, shown, before = poses[turns[0]], poses[turns[1]], poses[turns[2]]
+    return (new[0], new[1], new[2], shown[0], shown[1], before[0], before[1], shown[2]), planted[turns[3]]
+
+
+@njit(cache=True, inline="always")
+def _working(hbox, buf, hb):  # pragma: no cover - compiled
+    """:func:`_creature`'s working arrays, carved from ``buf`` (:func:`_scratch_size` long) and ``hb (L,)`` (a view
+    each: cheaper than passing two dozen array structures by value to every creature)."""
+    box = borrowed_box(hbox)
+    return _scratch(buf, hb, box[10], box[6][0][0].shape[1], box[2][1].shape[0])
+
+
+@njit(cache=True, inline="always")
 def _part(flat, off, v):  # pragma: no cover - compiled
     """Verb ``v``'s part of a flat table: ``flat[off[v]:off[v + 1]]``."""
     return flat[off[v] : off[v + 1]]
@@ -174,9 +203,10 @@ def _place(c, verbs, caches, state):  # pragma: no cover - compiled
 
 
 @njit(cache=True, _nrt=False)
-def _start(c, late, k, verbs, transitions, caches, state, k_):  # pragma: no cover - compiled
+def _start(c, late, k, hbox):  # pragma: no cover - compiled
     """``queue._start``: creature ``c`` starts transition ``k``; ``late``: seconds of this frame left after its region
     began. (Python pops it off the queue afterwards.)"""
+    verbs, transitions, _, caches, state, _, _, k_ = _held(hbox)
     verb, g, into, g_into, active, beta, length, regions = state[:8]
     inertial, rebase, halflife = state[9], state[10], state[17]
     t_regions, t_target, t_inertial = transitions[0], transitions[1], transitions[2]
@@ -219,8 +249,9 @@ def _start(c, late, k, verbs, transitions, caches, state, k_):  # pragma: no cov
 
 
 @njit(cache=True, _nrt=False)
-def _finish(c, verbs, state):  # pragma: no cover - compiled
+def _finish(c, hbox):  # pragma: no cover - compiled
     """``queue._finish`` without the queue (Python settles it): B plays on alone."""
+    verbs, _, _, _, state, _, _, _ = _held(hbox)
     verb, g, into, g_into, active = state[0], state[1], state[2], state[3], state[4]
     verb[c], g[c] = into[c], g_into[c]
     if g[c] < 0.0 and abs(g[c]) < 1e-9:
@@ -233,8 +264,10 @@ def _finish(c, verbs, state):  # pragma: no cover - compiled
 
 
 @njit(cache=True, _nrt=False)
-def _advance(c, dt, verbs, transitions, caches, state, head, events, g_settle, k_):  # pragma: no cover - compiled
+def _advance(c, dt, hbox):  # pragma: no cover - compiled
     """``player._advance`` for creature ``c``: its times moved on by ``dt``, transitions started and finished."""
+    verbs, transitions, _, caches, state, head, outputs, k_ = _held(hbox)
+    events, g_settle = outputs[4], outputs[5]
     verb, g, active, beta, length = state[0], state[1], state[4], state[5], state[6]
     moving = active[c] >= 0
     if moving:
@@ -251,7 +284,7 @@ def _advance(c, dt, verbs, transitions, caches, state, head, events, g_settle, k
             clock = _clock_of(g[c], v, 0, c, verbs, caches) + dt
             at = _clock_of(max(nxt, g[c]), v, 0, c, verbs, caches)
             g[c] = max(nxt, min(g[c], 1.0))
-            _start(c, max(clock - at, 0.0), k, verbs, transitions, caches, state, k_)
+            _start(c, max(clock - at, 0.0), k, hbox)
             events[c] = STARTED
         else:
             g[c] = g_new
@@ -259,7 +292,7 @@ def _advance(c, dt, verbs, transitions, caches, state, head, events, g_settle, k
         over = (beta[c] - 1.0) * length[c]
         beta[c] = 1.0
         _place(c, verbs, caches, state)
-        _finish(c, verbs, state)
+        _finish(c, hbox)
         events[c] = FINISHED
         g_settle[c] = g[c]
         if over > 0:  # the rest of the frame, B alone
@@ -296,9 +329,10 @@ def _blend_weight(beta):  # pragma: no cover - compiled
 
 
 @njit(cache=True, _nrt=False)
-def _base(c, ga, gb, verbs, caches, state, d_a, d_b, vel, blend):  # pragma: no cover - compiled
+def _base(c, ga, gb, hbox, d_a, d_b, vel, blend):  # pragma: no cover - compiled
     """``player._sample`` of one creature at A's and B's generic times: DOFs into ``d_a``, ``d_b``, the blended root
     velocities into ``vel (3,)``; returns A's blend weight ``α`` (1 alone, 0 inertial)."""
+    verbs, _, _, caches, state, _, _, _ = _held(hbox)
     verb, into, active, beta, inertial = state[0], state[2], state[4], state[5], state[9]
     moving = active[c] >= 0
     inert = moving and inertial[c]
@@ -429,9 +463,12 @@ def _carry_limit(c, verbs, caches, state):  # pragma: no cover - compiled
 
 
 @njit(cache=True, _nrt=False)
-def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, buffers, outputs, k_,
-              scratch):  # pragma: no cover  # fmt: skip
-    """``player._step`` for creature ``c``: its pose (not yet planted) into ``buffers``' new rows, its state moved on."""
+def _creature(c, dt, flags, turns, hbox, buf, hb):  # pragma: no cover
+    """``player._step`` for creature ``c``: its pose (not yet planted) into the new pose buffers' rows (:func:`_buffers`
+    by ``turns``), its state moved on; ``buf``, ``hb``: the working arrays (:func:`_working`)."""
+    verbs, transitions, skeleton, caches, state, _, outputs, k_ = _held(hbox)
+    buffers, _ = _buffers(hbox, turns)
+    scratch = _working(hbox, buf, hb)
     first, has_shown, has_before, has_held_before = flags
     verb, g, into, g_into, active, beta = state[:6]
     inertial, rebase = state[9], state[10]
@@ -444,11 +481,11 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
     rot_b, trans_b, rot0, trans0, hb, rb, sb, wts = scratch[9:17]
     fk_now_pos, fk_now_rot, fk_was_pos, fk_was_rot, xb, rot_b0, trans_b0 = scratch[17:]
     if first:  # the first step without a first frame: the velocities where the creature starts
-        _base(c, g[c], g_into[c], verbs, caches, state, d_a, d_b, vel, blend)
+        _base(c, g[c], g_into[c], hbox, d_a, d_b, vel, blend)
         for a in range(3):
             moving[c, a] = vel[a]
-    _advance(c, dt, verbs, transitions, caches, state, head, events, g_settle, k_)
-    alpha = _base(c, g[c], g_into[c], verbs, caches, state, d_a, d_b, vel, blend)
+    _advance(c, dt, hbox)
+    alpha = _base(c, g[c], g_into[c], hbox, d_a, d_b, vel, blend)
     reb = rebase[c] and has_shown
     rebase[c] = False
     x0, z0, h0 = root[c, 0], root[c, 1], root[c, 2]
@@ -460,7 +497,7 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
             rate_a, rate_b = _rates(c, verbs, caches, state)
             gb = _generic_of(_clock_of(g_into[c], into[c], 1, c, verbs, caches) - dt * rate_b, into[c], 1, c, verbs, caches)
         ga = _generic_of(_clock_of(g[c], verb[c], 0, c, verbs, caches) - dt * rate_a, verb[c], 0, c, verbs, caches)
-        alpha0 = _base(c, ga, gb, verbs, caches, state, e_a, e_b, vel0, blend)
+        alpha0 = _base(c, ga, gb, hbox, e_a, e_b, vel0, blend)
         for a in range(3):
             offset_root[c, a] = moving[c, a] - vel0[a]
     offset_since[c] += dt
@@ -520,7 +557,7 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
     if arms_take[c]:
         arms_take[c] = False
         if has_shown and arms.shape[0] > 0 and active[c] >= 0:
-            _arms_take(c, dt, has_before, x0, z0, h0, verbs, caches, state, arms, shown_rot, before_rot, e_b, rot_b,
+            _arms_take(c, dt, has_before, x0, z0, h0, hbox, arms, shown_rot, before_rot, e_b, rot_b,
                        rot0, trans0, r1, r2, blend)  # fmt: skip
     if arms_since[c] < state[26][c]:
         if active[c] >= 0 and active[c] == state[24][c]:  # in the blend that took it: the arms play B
@@ -594,10 +631,11 @@ def _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, b
 
 
 @njit(cache=True, _nrt=False)
-def _arms_take(c, dt, has_before, x0, z0, h0, verbs, caches, state, arms, shown_rot, before_rot, e_b, rot_b, rot0,
+def _arms_take(c, dt, has_before, x0, z0, h0, hbox, arms, shown_rot, before_rot, e_b, rot_b, rot0,
                trans0, r1, r2, blend):  # pragma: no cover  # fmt: skip
     """``player._arms``'s taking of creature ``c``'s arms' offset (a frame now and then: not inlined), from the pose
     shown and B a frame ago (decoded into ``rot0``) and now (``rot_b``)."""
+    verbs, _, _, caches, state, _, _, _ = _held(hbox)
     into, g_into, active = state[2], state[3], state[4]
     arms_rot, arms_vel, arms_since, arms_of = state[21], state[22], state[23], state[24]
     # B a frame ago, by its clock (player._back).
@@ -636,7 +674,7 @@ def _arms_show(t, length, arms_rot, arms_vel, arms, rot):  # pragma: no cover - 
 
 @njit(cache=True, inline="always")
 def _scratch(buf, hb, n_d, n_j, n_l):  # pragma: no cover - compiled
-    """One chunk's working arrays (see :func:`_creature`), carved from ``buf`` (:func:`_scratch_size` long, kept
+    """One creature's working arrays (see :func:`_creature`), carved from ``buf`` (:func:`_scratch_size` long, kept
     alive by the caller), and ``hb (L,)``, the caller's."""
     d_a, at = carve(buf, 0, (n_d,))
     d_b, at = carve(buf, at, (n_d,))
@@ -674,18 +712,18 @@ def _scratch_size(n_d, n_j, n_l):  # pragma: no cover - compiled
 
 
 @njit(cache=True, _nrt=False)
-def _chunk(lo, hi, dt, flags, verbs, transitions, skeleton, caches, state, head, buffers, outputs, k_, n_d,
-           planted, buf, hb):  # pragma: no cover  # fmt: skip
-    """Creatures ``lo`` to ``hi``: :func:`_creature` for each, their poses copied into ``planted = (rot, trans)``;
-    ``buf`` (:func:`_scratch_size` long) and ``hb (L,)``: the working arrays, the caller's."""
+def _chunk(lo, hi, dt, flags, turns, hbox, buf, hb):  # pragma: no cover
+    """Creatures ``lo`` to ``hi``: :func:`_creature` for each, their poses copied into the planted pair
+    (:func:`_buffers`); ``buf`` (:func:`_scratch_size` long) and ``hb (L,)``: the working arrays, the caller's."""
+    state = _held(hbox)[4]
+    buffers, planted = _buffers(hbox, turns)
     rot, trans = buffers[0], buffers[1]
     out_rot, out_trans = planted
-    n_j, n_l = rot.shape[1], skeleton[1].shape[0]
-    scratch = _scratch(buf, hb, n_d, n_j, n_l)
+    n_j = rot.shape[1]
     time = state[8]
     for c in range(lo, hi):
         time[c] += dt  # (player.step: state.time += dt)
-        _creature(c, dt, flags, verbs, transitions, skeleton, caches, state, head, buffers, outputs, k_, scratch)
+        _creature(c, dt, flags, turns, hbox, buf, hb)
         for j in range(n_j):
             for a in range(4):
                 out_rot[c, j, a] = rot[c, j, a]
@@ -718,16 +756,13 @@ def _frame(lo, hi, dt, flags, turns, held, feet):  # pragma: no cover - compiled
     # Every array given, borrowed: the views the pass takes of them are not counted (see _borrow_kernel).
     boxed = borrowed_box(held)
     verbs, transitions, skeleton, caches, state, head, poses, outputs, k_, chunk, n_d, planted_sets = boxed
-    new, shown, before = poses[turns[0]], poses[turns[1]], poses[turns[2]]
-    buffers = (new[0], new[1], new[2], shown[0], shown[1], before[0], before[1], shown[2])
-    planted = planted_sets[turns[3]]
+    _, planted = _buffers(held, turns)
     n_l = skeleton[1].shape[0]
-    buf, hb = np.empty(_scratch_size(n_d, new[0].shape[1], n_l)), np.empty(n_l, dtype=np.bool_)
+    buf, hb = np.empty(_scratch_size(n_d, poses[0][0].shape[1], n_l)), np.empty(n_l, dtype=np.bool_)
     finite = True
     for start in range(lo, hi, chunk):
         stop = min(start + chunk, hi)
-        _chunk(start, stop, dt, flags[:4], verbs, transitions, skeleton, caches, state, head, buffers, outputs, k_,
-               n_d, planted, buf, hb)  # fmt: skip
+        _chunk(start, stop, dt, flags[:4], turns, held, buf, hb)
         if feet is not None:
             mix = (state[0], state[2], state[4], state[5], state[9])  # verb, into, active, beta, inertial
             finite = _plant(start, stop, dt, outputs, planted, borrowed_box(feet), flags[4], k_, mix) and finite
