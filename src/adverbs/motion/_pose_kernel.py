@@ -29,9 +29,8 @@ def _mul(ax, ay, az, aw, bx, by, bz, bw):  # pragma: no cover - compiled
 def _exp(rx, ry, rz):  # pragma: no cover - compiled
     angle = math.sqrt(rx * rx + ry * ry + rz * rz)
     half = 0.5 * angle
-    sine, cosine = math.sin(half), math.cos(half)  # both taken: the compiler makes them one call (sincos)
-    k = 0.5 - angle**2 / 48.0 if angle < 1e-8 else sine / angle
-    return rx * k, ry * k, rz * k, cosine
+    k = 0.5 - angle**2 / 48.0 if angle < 1e-8 else math.sin(half) / angle
+    return rx * k, ry * k, rz * k, math.cos(half)
 
 
 @njit(cache=True, inline="always")
