@@ -168,6 +168,13 @@ def test_default_draws_follow_the_likelihoods(cmu):
     assert chisquare(counts, 3000 * weights / weights.sum()).pvalue > 1e-3
     again = new_state(g, 3000, seed=11, start="a")
     assert [q[0] for q in again.queue] == [q[0] for q in state.queue]
+    # draw finds one uniform number in the cumulative odds itself: the same draws as numpy's choice by probabilities
+    # (what it called until session 54), number for number, leaving each generator where choice leaves it.
+    for seed in range(200):
+        mine, numpy_s = np.random.default_rng(seed), np.random.default_rng(seed)
+        drawn = [g.draw(0, mine) for _ in range(25)]
+        assert drawn == [ways[int(numpy_s.choice(len(ways), p=weights / weights.sum()))] for _ in range(25)]
+        assert mine.random() == numpy_s.random()
 
 
 def test_a_refused_command_changes_nothing_and_the_creature_moves_on(cmu):

