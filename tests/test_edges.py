@@ -764,8 +764,17 @@ def test_a_verbs_contact_level_is_the_lowest_its_foot_comes_in_its_hold(bandai, 
         assert np.ptp(levels) > 0.005  # the adverbs move it
         for i in (0, len(points) - 1):
             np.testing.assert_allclose(verb.contact_levels(points[i : i + 1])[0], levels[i], rtol=0, atol=1e-12)
+        # A point's levels are kept once worked out; what a caller does with its copy changes nothing kept.
+        mine = verb.contact_levels(points[:1])
+        mine[:] = 99.0
+        np.testing.assert_allclose(verb.contact_levels(points[:1])[0], levels[0], rtol=0, atol=1e-12)
+        # A crowd whose creatures share points (worked out once a point) has each point's own levels.
+        shared = verb.contact_levels(np.concatenate([points[::-1], points, points[:1]]))
+        np.testing.assert_allclose(shared, np.concatenate([levels[::-1], levels, levels[:1]]), rtol=0, atol=1e-12)
         with pytest.raises(AdverbsError, match="finite"):
             verb.contact_levels(np.full((1, len(lo)), np.nan))
+        with pytest.raises(AdverbsError, match="finite"):
+            verb.contact_levels(np.concatenate([points[:1], np.full((2, len(lo)), np.nan)]))
 
 
 def test_know_levels_fills_what_the_planter_has_not_taken(cmu):

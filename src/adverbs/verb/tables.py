@@ -86,6 +86,7 @@ TIMINGS = ("extrapolate", "clamp")  # Verb.timing: how keytime intervals behave 
 LIFT_SAMPLES = 128  # Verb.lift_table: samples of each example's foot heights over its generic time
 LEVEL_SAMPLES = 16  # Verb.contact_levels: poses sampled evenly over each foot's hold ...
 LEVEL_BLOCK = 256  # ... for this many creatures at a time
+LEVELS_KEPT = 4096  # single points' levels a verb keeps (forgotten all at once past this)
 SETTLING = 0.1  # m/s²: the least root acceleration a verb's examples are taken to have (a stand's sway had 0.1-0.2)
 ACCELERATION_SAMPLES = 65  # Verb.root_acceleration_profile: samples of each example's root velocities over its generic time
 
@@ -344,16 +345,38 @@ class Verb:
         of leg rotations puts the foot lower or higher than the blend of where the examples put it (8 mm over a CMU
         walk's at 1.5 m/s turning 25°/s). 16 samples are within 1.2 mm of 512 on both shipped graphs' walks and runs
         inside their examples; 25% past them a walk's foot dips for a moment, and 16 can miss up to 9 mm of it."""
-        from ..kinematics.fk import forward_kinematics  # (kinematics does not import verbs; kept local all the same)
-
         p = np.ascontiguousarray(np.atleast_2d(np.asarray(points, dtype=float)))
         c, n_l = len(p), len(self.holds)
         if not (self.cyclic and n_l and c):
             return np.full((c, n_l), np.nan)
+        if c > 1:  # creatures at one point have one level (each row is its own): a crowd's shared points once
+            unique, back = np.unique(p, axis=0, return_inverse=True)
+            if len(unique) < c:
+                return self.contact_levels(unique)[back.reshape(-1)]
         if c > LEVEL_BLOCK:  # a crowd in blocks: its poses stay in the cache (10,000 at once took 4x as long)
             return np.concatenate([self.contact_levels(p[a : a + LEVEL_BLOCK]) for a in range(0, c, LEVEL_BLOCK)])
         if not np.all(np.isfinite(p)):
             raise AdverbsError("adverb values must be finite numbers (got NaN or infinity)")
+        if c == 1:  # one point: kept (a crowd at a few shared points asks for them again and again, ~1 ms a call)
+            kept = self._levels_kept
+            key = p.tobytes()
+            if key not in kept:
+                if len(kept) >= LEVELS_KEPT:
+                    kept.clear()
+                kept[key] = self._contact_levels(p)
+            return kept[key].copy()
+        return self._contact_levels(p)
+
+    @cached_property
+    def _levels_kept(self) -> dict[bytes, np.ndarray]:
+        """:meth:`contact_levels` of single points already worked out, by the point's bytes."""
+        return {}
+
+    def _contact_levels(self, p: np.ndarray) -> np.ndarray:
+        """:meth:`contact_levels` of finite points ``p (C, A)``, worked out."""
+        from ..kinematics.fk import forward_kinematics  # (kinematics does not import verbs; kept local all the same)
+
+        c, n_l = len(p), len(self.holds)
         w = sampling.point_weights(self, p)  # (each creature's own bits, alone or in a crowd)
         opens = np.array([h.open for h in self.holds])
         close = self.hold_times(w)[..., 2]  # (C, L): each hold's toe-off
