@@ -314,7 +314,7 @@ class Graph:
         for ways in self._leaving:
             p = np.array([self.transitions[k].likelihood for k in ways])
             cdf = (p / p.sum()).cumsum() if ways else p
-            out.append((cdf / cdf[-1] if ways else cdf).tolist())
+            out.append((cdf / cdf[-1]).tolist() if ways else [])
         return tuple(out)
 
     def point(self, values: dict[str, float] | Sequence[float] | np.ndarray | None = None) -> np.ndarray:

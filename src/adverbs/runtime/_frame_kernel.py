@@ -108,11 +108,18 @@ def _buffers(hbox, turns):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
+def _sizes(hbox):  # pragma: no cover - compiled
+    """A creature's DOFs, joints and feet, ``(D, J, L)``: what its working arrays are sized by (:func:`_scratch`)."""
+    box = borrowed_box(hbox)
+    return box[10], box[6][0][0].shape[1], box[2][1].shape[0]
+
+
+@njit(cache=True, inline="always")
 def _working(hbox, buf, hb):  # pragma: no cover - compiled
     """:func:`_creature`'s working arrays, carved from ``buf`` (:func:`_scratch_size` long) and ``hb (L,)`` (a view
     each: cheaper than passing two dozen array structures by value to every creature)."""
-    box = borrowed_box(hbox)
-    return _scratch(buf, hb, box[10], box[6][0][0].shape[1], box[2][1].shape[0])
+    n_d, n_j, n_l = _sizes(hbox)
+    return _scratch(buf, hb, n_d, n_j, n_l)
 
 
 @njit(cache=True, inline="always")
@@ -475,7 +482,7 @@ def _creature(c, dt, flags, turns, hbox, buf, hb):  # pragma: no cover
     offset_rot, offset_rot_vel, offset_trans, offset_trans_vel = state[11], state[12], state[13], state[14]
     offset_root, offset_since, offset_halflife, moving, root, held_before = state[15:21]
     rot, trans, vel_out, shown_rot, shown_trans, before_rot, before_trans, shown_vel = buffers
-    held, roll, swing, kinds, events, g_settle, lifts = outputs
+    held, roll, swing, kinds, _, _, lifts = outputs  # (events and g_settle: _advance's)
     parents, feet, above_inv, body, arms = skeleton
     d_a, d_b, e_a, e_b, vel, vel0, r1, r2, blend = scratch[:9]
     rot_b, trans_b, rot0, trans0, hb, rb, sb, wts = scratch[9:17]
@@ -755,10 +762,10 @@ def frame_planted(lo, hi, dt, flags, turns, box, feet):  # pragma: no cover - co
 def _frame(lo, hi, dt, flags, turns, held, feet):  # pragma: no cover - compiled
     # Every array given, borrowed: the views the pass takes of them are not counted (see _borrow_kernel).
     boxed = borrowed_box(held)
-    verbs, transitions, skeleton, caches, state, head, poses, outputs, k_, chunk, n_d, planted_sets = boxed
+    _, _, _, _, state, _, _, outputs, k_, chunk, _, _ = boxed
     _, planted = _buffers(held, turns)
-    n_l = skeleton[1].shape[0]
-    buf, hb = np.empty(_scratch_size(n_d, poses[0][0].shape[1], n_l)), np.empty(n_l, dtype=np.bool_)
+    n_d, n_j, n_l = _sizes(held)
+    buf, hb = np.empty(_scratch_size(n_d, n_j, n_l)), np.empty(n_l, dtype=np.bool_)
     finite = True
     for start in range(lo, hi, chunk):
         stop = min(start + chunk, hi)
