@@ -169,14 +169,19 @@ def test_a_stop_that_re_places_the_rolling_foot_keeps_it_swinging(bandai, seed, 
     benchmarks/edges.py found it at another). It now comes down no lower than the walk's own swing lifts it.
 
     The points and cue times are those of a random sweep of stops and starts (a walk or a stand every 1.5-3.5 s),
-    replayed exactly: the skid needs the feet as the stops and starts before left them."""
+    replayed exactly: the skid needs the feet as the stops and starts before left them. A stop a walk cue turns back
+    into the walk is not one that stands: since session 55 the stand's wanderings into gestures blend longer (paced),
+    the history at seed 20 differs, and its walk cue at 18.88 s turns a stop back, the swinging foot skimming 14-21 mm
+    over its contact height for 55 mm (issue 32's note)."""
     cues = [Cue(t, v) for t, v in zip(times, ["walk", "idle"] * 4)]
     perf = perform(bandai, cues, seconds=times[-1] + 2.5, seed=seed, adverbs=adverbs, start="idle")
     toes = _toes(bandai)
     pos = perf.planted.global_positions()[:, toes]
     alone = perform(bandai, [], seconds=6.0, seed=seed, start="walk", adverbs=adverbs, stay=True).planted.global_positions()[:, toes]
     own = low_travel(alone, _contact(alone), np.arange(30, len(alone)))
-    stops = _windows(perf, bandai, {("walk", "idle")})
+    walk = bandai.verb_index("walk")
+    stops = [(s, t, a, b) for s, t, a, b in _windows(perf, bandai, {("walk", "idle")})
+             if not ((perf.verb[a:b] == walk) & (perf.active[a:b] < 0)).any()]  # (not turned back into the walk)
     assert len(stops) >= 3, stops
     contact = _contact(pos)
     worst = max(low_travel(pos, contact, np.arange(a, b)) for _, _, a, b in stops)
@@ -421,15 +426,17 @@ def test_a_gesture_asked_for_late_in_a_stand_blends_as_long_as_one_asked_for_at_
     assert len(lengths) >= 2 and max(lengths) - min(lengths) <= 1, lengths  # frames: one blend, whenever it began
 
 
-def test_a_foot_let_go_out_of_reach_is_held_again_where_the_stand_holds_it(bandai):
+@pytest.mark.parametrize("seed", [109, 116, 123])
+def test_a_foot_let_go_out_of_reach_is_held_again_where_the_stand_holds_it(bandai, seed):
     """A walk's stance foot, left behind as a stop was cut short by a bow, was let go out of its leg's reach; the
     stand and the gestures hold it flat for as long as they play, and it stayed free until their hold ended, which
     never came: it followed the body along the floor, 60 cm at once, then 10 cm at each later gesture. It is now
-    re-placed, a step to where they hold it. A random gesture script (seed 106 of 30 tried at random) where that
-    happens: in every transition between standing verbs from a second after the last walk, no toe travels more than
-    2 cm along the floor."""
-    cues, adverbs = gesture_script(106)
-    perf = perform(bandai, cues, seconds=28.0, seed=106, adverbs=adverbs, start="idle")
+    re-placed, a step to where they hold it. Random gesture scripts that walk: in every transition between standing
+    verbs from a second after the last walk, no toe travels more than 2 cm along the floor. (Seed 106 of 30 tried at
+    random was where it happened until session 55, when the gestures' blends were paced and its script stopped
+    walking; these are the seeds of 100-124 that walk and whose standing toes travel furthest, 14-15 mm, and one.)"""
+    cues, adverbs = gesture_script(seed)
+    perf = perform(bandai, cues, seconds=28.0, seed=seed, adverbs=adverbs, start="idle")
     pos = perf.planted.global_positions()[:, _toes(bandai)]
     contact = _contact(pos)
     standing = ("idle", "reach", "bow", "guide", "bye")

@@ -134,15 +134,17 @@ def _cue_windows(perf, graph):
 _PLAYED: dict = {}
 
 
-def _played(graph, name, seed, adverbs):
+def _played(graph, name, seed, adverbs, script=None):
     """Graph ``name``'s script played at ``seed`` and ``adverbs``, measured window by window: ``(source, target, a, b,
     shown, own)``, ``shown`` what the window's frames show (a low toe's travel, each part's fastest joint, the root's
     fastest acceleration, the hips' planted and unplanted ranges) and ``own`` the same of its verbs played alone at the
     adverbs in effect (an adverb cue changes them, over its ease: both while it eases), the larger of the two.
-    Each cue's verb stays until the next cue (``perform(stay=True)``), so the windows are the script's own."""
+    Each cue's verb stays until the next cue (``perform(stay=True)``), so the windows are the script's own.
+    ``script``: ``(cues, seconds, toe names, kinds)`` played instead of :data:`SCRIPTS`' ``name`` (kept under
+    ``name``)."""
     if (name, seed) in _PLAYED:
         return _PLAYED[name, seed]
-    script, seconds, toe_names, kinds = SCRIPTS[name]
+    script, seconds, toe_names, kinds = SCRIPTS[name] if script is None else script
     cues = [Cue(t, adverbs=v) if isinstance(v, dict) else Cue(t, v) for t, v in script]
     perf = perform(graph, cues, seconds=seconds, seed=seed, adverbs=adverbs, start=graph.verb_names[0], stay=True)
     names = graph.skeleton.names
@@ -202,8 +204,11 @@ NOT_YET = {
     # once the other had landed, landed 0.2 s into the stand's loop, which starts the frame after every stop ends, its
     # knee at 230 deg/s where the stand's own legs turn at 10. The half second after a transition where its landing
     # settles is measured against its verbs as well as the next's now: test_edges._settled)
-    ("bandai", "idle", "reach", "legs"): 1.7,  # 3.95 until a foot stepped after a stop was held again (session 47)
-    ("bandai", "idle", "bow", "trunk"): 2.4,  # a bow cutting a stand's loop short turns the head fast (3.1x until session 45)
+    # (Bandai's idle → bow trunk at 2.4x and its idle → reach legs at 1.7x until session 55 paced the blends between
+    # standing verbs: test_a_blend_between_standing_verbs_turns_no_part_faster_than_its_verbs. A sad stand holds its
+    # head 25° from a sad bow's, and a bow cutting the stand's loop short took the head there in 0.2 s of an
+    # inertial decay, 65°/s; the reach's legs went 1.7x theirs through the same cut. The legs at 3.95x until a foot
+    # stepped after a stop was held again, session 47; the trunk at 3.1x until session 45)
     # (a stand's loop into itself turned the trunk at 1.9x until it blended into 0.7 of the stand, session 45)
     # (a stop's root at 1.85x until session 47: its carried speed was a frame ahead of the walk's, and a blend into a
     # one-shot now changes the carried body's velocity no faster than its verbs' own: test_a_stop_brakes_as_its_verbs_do)
@@ -309,7 +314,7 @@ def test_a_stop_stands_on_a_foot_throughout(graphs):
     assert checked > 60, checked
 
 
-@pytest.mark.parametrize("seed", [201, 205, 206])
+@pytest.mark.parametrize("seed", [207, 205, 206])
 def test_a_stop_brakes_as_its_verbs_do(graphs, seed):
     """A stop's body, carried by its feet at the speed of the blend of the walk's and the stand's own velocities, took
     that speed at the step's end where the root's own advance takes the step's start: the first step of the blend
@@ -317,7 +322,8 @@ def test_a_stop_brakes_as_its_verbs_do(graphs, seed):
     blend into the stand changed the body's velocity as fast as the blend did. Now the carried step goes at the
     step's start, and a blend into a one-shot changes it no faster than its verbs' own (``player.carry_limits``).
     Random gesture scripts whose stops went 1.50-1.58x their verbs' own: every stop's root acceleration within 1.25x
-    (0.99-1.02x here; the issue's bound is 1.5x)."""
+    (0.99-1.02x here; the issue's bound is 1.5x). (Seed 201's script no longer stops since session 55 paced the
+    gestures' blends: 207 stops four times.)"""
     from test_edges import gesture_script
 
     graph = graphs["bandai"]
@@ -466,7 +472,8 @@ def _root_acceleration(perf, graph):
 def test_a_verb_looping_after_a_transition_keeps_its_own_pace(graphs, seed, adverbs):
     """A walk or run looping into itself after a change of verb accelerates its root at most 1.5x as it does alone.
     Under the decaying offset an interruption leaves, the body was carried by the feet's whole slip: a run dipped to
-    1.9 m/s and lurched on at 2.6 for a second (18-22 m/s², the run's own 6); now no slower than its root's own."""
+    1.9 m/s and lurched on at 2.6 for a second (18-22 m/s², the run's own 6); now no slower than its root's own.
+    (The script wanders between its cues: since session 55 paced gestures leave seed 17 two loops, not three.)"""
     graph = graphs["bandai"]
     script, seconds, _, _ = SCRIPTS["bandai"]
     cues = [Cue(t, adverbs=v) if isinstance(v, dict) else Cue(t, v) for t, v in script]
@@ -480,7 +487,7 @@ def test_a_verb_looping_after_a_transition_keeps_its_own_pace(graphs, seed, adve
             checked += 1
             if acc[a:b].max() > 1.5 * own:
                 failures.append(f"{verb} loop at {a / FPS:.2f} s: {acc[a:b].max():.1f} m/s² (its own {own:.1f})")
-    assert checked >= 3 and not failures, "\n".join(failures)
+    assert checked >= 2 and not failures, "\n".join(failures)
 
 
 @pytest.mark.parametrize("cue", [1.2, 2.0])
@@ -648,3 +655,67 @@ def test_a_runs_first_landing_after_a_walk_comes_down_at_the_runs_level(graphs, 
     own = max(_own(graph, v, toes, seed, adverbs)["toe"] for v in ("walk", "run"))
     shown = low_travel(pos, _contact(pos), np.arange(a, b))
     assert shown <= own + 0.02, f"{shown * 1000:.0f} mm, the verbs' own {own * 1000:.0f}"
+
+
+def _standing_script(seed: int):
+    """A random script of the four Bandai gestures in a random order, a stand asked for 3-5 s after each, the next
+    gesture 1-2.5 s later, at a random valence: ``(cues, seconds, toe names, kinds)`` and its adverbs."""
+    rng = np.random.default_rng(seed)
+    t, cues = 0.5, []
+    for gesture in rng.permutation(["reach", "bow", "guide", "bye"]):
+        cues.append((round(t, 2), str(gesture)))
+        t += rng.uniform(3.0, 5.0)
+        cues.append((round(t, 2), "idle"))
+        t += rng.uniform(1.0, 2.5)
+    adverbs = {"valence": float(rng.uniform(-1.0, 1.0)), "energy": 0.0, "turn": 0.0}
+    return (cues, t + 2.0, ("Toes_L", "Toes_R"), set()), adverbs
+
+
+@pytest.mark.parametrize("seed", [104, 107, 101])
+def test_a_blend_between_standing_verbs_turns_no_part_faster_than_its_verbs(graphs, seed):
+    """A blend from one standing verb into another (a stand into a gesture, a gesture into the stand) lasted the mean
+    of its regions, however far apart the two verbs hold a joint: a sad stand holds its head 25° from a sad bow's, and
+    the bow turned the head at 3.5x the verbs' own fastest (seed 104, valence -0.87; 2.2x at seed 107). Such a blend
+    now lasts long enough that, by its blending alone, no part but the legs turns faster than the part's own fastest
+    in the two verbs (``clocks.paced_length``; the legs are the planter's), up to 2 s; a command that cuts a stand's
+    loop short blends into the gesture so too, where it decayed onto it at once. Every window between standing verbs
+    keeps its arms and trunk within 1.5x their verbs' own. Random scripts (seeds 100-107 drawn, not tuned on: these
+    failed before, 101 passed); the fixed script's windows: :func:`test_every_transition_keeps_its_joints_and_root`."""
+    script, adverbs = _standing_script(seed)
+    standing = {"idle", "reach", "bow", "guide", "bye"}
+    failures, windows = [], 0
+    for s, t, a, _, shown, ref in _played(graphs["bandai"], f"standing {seed}", seed, adverbs, script):
+        if s in standing and t in standing and s != t:
+            windows += 1
+            for what in ("arms", "trunk"):
+                if shown[what] > 1.5 * ref[what]:
+                    failures.append(f"{s}→{t} at {a / FPS:.2f} s: {what} at {shown[what] / ref[what]:.2f}x its verbs' own")
+    assert windows >= 8, windows
+    assert not failures, "\n".join(failures)
+
+
+@pytest.mark.parametrize("verb", ["idle", "bow", "guide", "bye"])
+def test_a_verbs_own_part_speeds_are_what_its_poses_show(graphs, verb):
+    """How fast a verb turns each part at a creature's adverbs, as blends between standing verbs are paced by
+    (``Graph.own_speeds``: its examples' joint speeds blended with the creature's weights at each generic time, their
+    fastest) is 0.67-1.37x the fastest its poses there show, sampled 16 times finer, at valences across its span (the
+    sad bow's trunk 1.03x, where its examples' fastest blended, not their speeds through time, said 1.4x); at an
+    example's own weights it is that example's."""
+    from adverbs.interp.timewarp import clock_time
+    from adverbs.verb.sampling import dofs
+
+    graph = graphs["bandai"]
+    v = graph.verb_index(verb)
+    own_verb = graph.verbs[v]
+    one_hot = np.eye(len(own_verb.examples))
+    for e in range(len(one_hot)):
+        np.testing.assert_allclose(graph.own_speeds(v, one_hot[e]), graph.part_speeds[v][e], rtol=0, atol=1e-12)
+    g = np.linspace(0.0, 1.0, 16 * 64 + 1)
+    for valence in (-0.9, -0.5, 0.2, 0.6):
+        p = graph.verb_points(v, graph.point({"valence": valence})[None])[0]
+        rot, _ = own_verb.encoding.decode_pose(dofs(own_verb, np.tile(p, (len(g), 1)), g), np.zeros((len(g), 3)))
+        seconds = np.diff(clock_time(g, own_verb.keytimes(p), own_verb.generic_keytimes))
+        speed = _angular_speed(rot) / FPS / seconds[:, None]  # (rad between samples, per second of the verb's clock)
+        shown = np.array([speed[:, part].max() for part in graph.paced])
+        ratio = graph.own_speeds(v, own_verb.weights(p)) / shown
+        assert np.all((ratio > 0.6) & (ratio < 1.4)), (valence, ratio)

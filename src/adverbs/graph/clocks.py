@@ -13,7 +13,7 @@ import numpy as np
 
 from ..verb.sampling import SamplingState
 from ._time_kernel import clock_rows, generic_rows, later_rows
-from .state import GraphState
+from .state import MOST_PACED, PACE, GraphState
 
 
 def blend_weight(beta: np.ndarray) -> np.ndarray:
@@ -56,6 +56,37 @@ def duration(
     length_b = clock_of(np.broadcast_to(b[1], len(keys_b)), keys_b, generic_b) - clock_of(np.broadcast_to(b[0], len(keys_b)), keys_b, generic_b)
     return 0.5 * (length_a + length_b)
 
+
+PACED_AT = np.array([0.25, 0.5, 0.75])  # where in a blend paced_length compares the verbs' poses (β)
+
+
+def paced_length(state: GraphState, c: int, k: int, regions: tuple[float, float, float, float]) -> float:
+    """The least length (seconds) of creature ``c``'s cosine blend through transition ``k`` over ``regions`` ``(sa,
+    ea, sb, eb)`` (generic times) for no part of :attr:`Graph.paced` to turn faster, by the blending alone, than
+    :data:`PACE` times its own fastest in the two verbs, up to :data:`MOST_PACED`.
+
+    The blend turns a joint at ``α'(β) θ(β)``, ``θ`` the angle between the verbs' poses and ``α' = π sin(βπ) / 2T``
+    over ``T`` seconds. ``θ`` is measured at ``β`` = :data:`PACED_AT` (A and B at those fractions of their regions,
+    by generic time, at the creature's adverbs); ``ω``, the part's own fastest at the creature's weights
+    (``Graph.own_speeds``), the larger of A's and B's: ``T = π max(sin(βπ) θ / ω) / (2 PACE)``. The frame kernel's
+    ``_paced``, the same."""
+    from ..verb.sampling import GENERIC, run_kernel  # (sampling imports the verbs' kernel: kept out of import time)
+
+    graph = state.graph
+    t = graph.transitions[k]
+    sa, ea, sb, eb = regions
+    rows = np.full(len(PACED_AT), c, dtype=np.int64)
+    rot, omega = [], []
+    for v, slot, s, e in ((t.source, 0, sa, ea), (t.target, 1, sb, eb)):
+        verb, cache = graph.verbs[v], _sampling(state, v, slot)
+        d = run_kernel(verb, cache, rows, np.clip(s + PACED_AT * (e - s), 0.0, 1.0), GENERIC)
+        rot.append(verb.encoding.decode_pose(d, np.zeros(3))[0])
+        omega.append(graph.own_speeds(v, cache.weights[c]))
+    cos = np.minimum(np.abs(np.sum(rot[0] * rot[1], axis=-1)), 1.0)
+    turn = 2.0 * np.arccos(cos) * np.sin(np.pi * PACED_AT)[:, None]  # (β, J)
+    own = np.maximum(omega[0], omega[1])
+    need = max(float(turn[:, p].max()) / max(float(own[i]), 1e-9) for i, p in enumerate(graph.paced))
+    return min(0.5 * np.pi * need / PACE, MOST_PACED)
 
 
 def _sampling(state: GraphState, v: int, slot: int) -> SamplingState:

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from .structure import CommandRefused
-from .clocks import _sampling, clock_of, duration
+from .clocks import _sampling, clock_of, duration, paced_length
 from .state import (
     INERTIAL_HALFLIFE, INTERRUPT_HALFLIFE, MIN_DURATION, MIN_LOOP, ARMS_BLEND, _LATE, GraphState, _settle_queue, sync_head,
 )  # fmt: skip
@@ -59,8 +59,11 @@ def _command(state: GraphState, c: int, verb: str | int, stay: bool) -> list[int
             state.queue[c] = list(path)
             first = graph.transitions[path[0]]
             if not graph.verbs[first.source].cyclic and state.g[c] >= first.source_region[0]:
-                # The way on from the verb being entered is open already: take it at once, from the pose shown.
-                _start(state, c, 0.0, inertial=True)
+                # The way on from the verb being entered is open already: take it at once, from the pose shown. Between
+                # standing verbs it blends as it would have (paced: clocks.paced_length), the interrupted blend's
+                # difference decaying under it: entered at once, a bow's first frame (its legs at 30-50°/s) was
+                # carried on in the offset's velocity, the legs turning against the bow at up to 43°/s.
+                _start(state, c, 0.0, inertial=not graph.paced_transitions[path[0]])
                 return list(path)
     state.queue[c] = list(path)
     if state.active[c] < 0:
@@ -152,6 +155,8 @@ def _start(state: GraphState, c: int, late: float, inertial: bool = False) -> No
             # A's clock runs slower through what is left of its region instead.
             whole_a = duration(t.source_region, (sb, eb), keys_a, keys_b, a.generic_keytimes, b.generic_keytimes)[0]
             length = max(length, float(whole_a))
+    if not cut and graph.paced_transitions[k]:  # long enough for no part to turn too fast by the blend alone
+        length = max(length, paced_length(state, c, k, (sa, ea, sb, eb)))
     state.active[c], state.into[c] = k, t.target
     state.regions[c] = (sa, ea, sb, eb)
     state.length[c] = max(length, MIN_LOOP if t.source == t.target else MIN_DURATION)

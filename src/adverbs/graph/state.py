@@ -31,6 +31,12 @@ MIN_DURATION = 0.1  # seconds: no transition is shorter (but a verb's loop into 
 # MIN_DURATION, a loop begun late near its region's end slowed the verb's clock tenfold (a CMU run's root from 3 to
 # 0.3 m/s for 0.1 s, then back). It takes what is left of its region, however short.
 MIN_LOOP = 1e-6  # seconds
+# A blend between standing verbs (Graph.paced_transitions) turns each joint by α' times the angle between the verbs'
+# poses; over the mean of its regions' lengths, a stand into a sad bow turned the head at 2.4x the bow's own fastest
+# (the two hold the head 25° apart). It lasts long enough that, by its blending alone, no part turns faster than
+# PACE times the part's own fastest in the two verbs at the creature's adverbs (clocks.paced_length).
+PACE = 1.0
+MOST_PACED = 2.0  # seconds: ... but no longer than this (a sad stand into a sad reach asked for 2.8)
 _LATE = 1e-9  # generic time: a region start this close behind is not yet gone by
 
 

@@ -266,6 +266,50 @@ class Graph:
         return tuple(p for p in parts if len(p))
 
     @cached_property
+    def paced(self) -> tuple[np.ndarray, ...]:
+        """The parts (:attr:`parts`) a blend between standing verbs is paced by (:attr:`paced_transitions`): all but
+        the legs of verbs that hold their feet, which the planter's IK places (what a free leg would show in the blend
+        is not what is shown: a stand's and a reach's legs 30° apart, the planted legs turning a third as far)."""
+        return self.parts[1:] if self.leg_chains is not None else self.parts
+
+    @cached_property
+    def paced_joints(self) -> np.ndarray:
+        """Which of :attr:`paced` each joint is in ``(J,)``, −1 for none."""
+        out = np.full(self.skeleton.num_joints, -1, dtype=np.int64)
+        for i, p in enumerate(self.paced):
+            out[p] = i
+        return out
+
+    @cached_property
+    def part_speeds(self) -> tuple[np.ndarray, ...]:
+        """Per verb: each example's fastest joint of each of :attr:`paced` ``(E_v, P)``, rad/s
+        (:attr:`Verb.joint_speed_profile`)."""
+        return tuple(
+            np.stack([v.joint_speed_profile[..., p].max(axis=(1, 2)) for p in self.paced], axis=1) for v in self.verbs
+        )
+
+    def own_speeds(self, v: int, weights: np.ndarray) -> np.ndarray:
+        """Verb ``v``'s fastest joint of each of :attr:`paced` ``(P,)`` at cardinal ``weights (E_v,)``, rad/s: its
+        examples' :attr:`Verb.joint_speed_profile` blended with the weights at each generic time, at its fastest, kept
+        within the examples' own (:attr:`part_speeds`)."""
+        profile, speeds = self.verbs[v].joint_speed_profile, self.part_speeds[v]
+        blended = np.einsum("e,esj->sj", np.asarray(weights, dtype=float)[: len(profile)], profile)
+        own = np.array([blended[:, p].max() for p in self.paced])
+        return np.clip(own, speeds.min(axis=0), speeds.max(axis=0))
+
+    @cached_property
+    def paced_transitions(self) -> np.ndarray:
+        """Whether each transition's blend is paced by the parts' speeds ``(T,)`` (``queue.paced_length``): a cosine
+        blend from one one-shot verb into another, a stand into a gesture and back. A cycle's blends are timed by its
+        feet (a stop lands the swinging foot as the stand takes it)."""
+        cyclic = self.cyclic
+        return np.array(
+            [t.source != t.target and t.blend == "cosine" and not cyclic[t.source] and not cyclic[t.target]
+             for t in self.transitions],
+            dtype=np.bool_,
+        )  # fmt: skip
+
+    @cached_property
     def hold_layout(self) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
         """Per verb: its holds' opening generic times ``(L_v,)`` and which of :attr:`feet` each hold is ``(L_v,)``."""
         return tuple(

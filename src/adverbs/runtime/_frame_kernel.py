@@ -80,7 +80,7 @@ STARTED, FINISHED = 1, 2  # events: a transition started, or finished, this fram
 FREE, BALL = 0, 2  # planting.FREE, planting.BALL
 # Where each constant sits in ``k_`` (see frame.FramePass).
 (_LATE, _MIN_DURATION, _INERTIAL, _LN2, _REPLANT, _REPLANTED, _SWING, _LIFT, _LANDS, _LEFT_BEHIND, _RISE, _DELAY, _LAND, _MIN_LOOP,
- _STANDING, _SHIFTED, _SWING_LIFT, _ARMS) = range(18)
+ _STANDING, _SHIFTED, _SWING_LIFT, _ARMS, _PACE, _MOST_PACED) = range(20)
 
 
 # ----- the tables, packed: per verb, a slice of a flat array (see frame.tables and FramePass) ------------------
@@ -209,10 +209,73 @@ def _place(c, verbs, caches, state):  # pragma: no cover - compiled
     g_into[c] = _generic_of(cb0 + b * run, into[c], 1, c, verbs, caches)
 
 
+@njit(cache=True, inline="always")
+def _own_speeds(v, slot, c, verbs, caches, part_of, out):  # pragma: no cover - compiled
+    """``Graph.own_speeds`` of creature ``c``'s verb ``v`` (in ``slot``) into ``out[:P]``: its examples' joint speeds
+    blended with its weights at each generic time, each paced part's fastest, kept within the examples' own."""
+    profile, bounds, dims = _part(verbs[31], verbs[32], v), _part(verbs[33], verbs[34], v), verbs[35]
+    n_e, n_s, n_j = dims[v, 0], dims[v, 1], dims[v, 2]
+    n_p = out.shape[0]
+    w = _columns(caches, slot, v, 0)[c]
+    for p in range(n_p):
+        out[p] = -np.inf
+    for s in range(n_s):
+        for j in range(n_j):
+            p = part_of[j]
+            if p < 0:
+                continue
+            acc = 0.0
+            for e in range(n_e):
+                acc += w[e] * profile[(e * n_s + s) * n_j + j]
+            out[p] = max(out[p], acc)
+    for p in range(n_p):
+        lo, hi = np.inf, -np.inf
+        for e in range(n_e):
+            lo, hi = min(lo, bounds[e * n_p + p]), max(hi, bounds[e * n_p + p])
+        out[p] = min(max(out[p], lo), hi)
+
+
 @njit(cache=True, _nrt=False)
-def _start(c, late, k, hbox):  # pragma: no cover - compiled
+def _paced(c, k, sa, ea, sb, eb, hbox, buf, hb):  # pragma: no cover - compiled
+    """``clocks.paced_length`` of creature ``c``'s blend through transition ``k`` over the regions ``(sa, ea, sb,
+    eb)``; sampled into the creature's working arrays (:func:`_working`: free while its times move on)."""
+    verbs, transitions, skeleton, caches, state, _, _, k_ = _held(hbox)
+    scratch = _working(hbox, buf, hb)
+    d, r1, r2, blend, rot_a, trans_a, rot_b, trans_b = (
+        scratch[2], scratch[6], scratch[7], scratch[8], scratch[11], scratch[12], scratch[22], scratch[23]
+    )  # fmt: skip
+    part_of = skeleton[5]
+    source, target = state[0][c], transitions[1][k]
+    n_p = 0
+    for j in range(part_of.shape[0]):
+        n_p = max(n_p, part_of[j] + 1)
+    own, other = r1[:n_p], r2[:n_p]
+    _own_speeds(source, 0, c, verbs, caches, part_of, own)
+    _own_speeds(target, 1, c, verbs, caches, part_of, other)
+    for p in range(n_p):
+        own[p] = max(max(own[p], other[p]), 1e-9)
+    need = 0.0
+    for i in range(3):  # clocks.PACED_AT
+        b = 0.25 * (i + 1)
+        scale = math.sin(np.pi * b)
+        _dofs(d, source, 0, c, min(max(sa + b * (ea - sa), 0.0), 1.0), verbs, caches, blend)
+        _decode_verb(source, d, 0.0, 0.0, 0.0, verbs, rot_a, trans_a)
+        _dofs(d, target, 1, c, min(max(sb + b * (eb - sb), 0.0), 1.0), verbs, caches, blend)
+        _decode_verb(target, d, 0.0, 0.0, 0.0, verbs, rot_b, trans_b)
+        for j in range(part_of.shape[0]):
+            p = part_of[j]
+            if p < 0:
+                continue
+            dot = abs(rot_a[j, 0] * rot_b[j, 0] + rot_a[j, 1] * rot_b[j, 1] + rot_a[j, 2] * rot_b[j, 2]
+                      + rot_a[j, 3] * rot_b[j, 3])  # fmt: skip
+            need = max(need, 2.0 * math.acos(min(dot, 1.0)) * scale / own[p])
+    return min(0.5 * np.pi * need / k_[_PACE], k_[_MOST_PACED])
+
+
+@njit(cache=True, _nrt=False)
+def _start(c, late, k, hbox, buf, hb):  # pragma: no cover - compiled
     """``queue._start``: creature ``c`` starts transition ``k``; ``late``: seconds of this frame left after its region
-    began. (Python pops it off the queue afterwards.)"""
+    began. (Python pops it off the queue afterwards.) ``buf``, ``hb``: the creature's working arrays (:func:`_paced`)."""
     verbs, transitions, _, caches, state, _, _, k_ = _held(hbox)
     verb, g, into, g_into, active, beta, length, regions = state[:8]
     inertial, rebase, halflife = state[9], state[10], state[17]
@@ -240,6 +303,8 @@ def _start(c, late, k, hbox):  # pragma: no cover - compiled
         whole_a = (_clock_of(t_regions[k, 1], source, 0, c, verbs, caches)
                    - _clock_of(t_regions[k, 0], source, 0, c, verbs, caches))  # fmt: skip
         duration = max(duration, 0.5 * (whole_a + length_b))
+    if not t_inertial[k] and transitions[5][k]:  # long enough for no part to turn too fast by the blend alone
+        duration = max(duration, _paced(c, k, sa, ea, sb, eb, hbox, buf, hb))
     active[c], into[c] = k, target
     regions[c, 0], regions[c, 1], regions[c, 2], regions[c, 3] = sa, ea, sb, eb
     length[c] = max(duration, k_[_MIN_LOOP] if source == target else k_[_MIN_DURATION])  # a loop: what is left
@@ -271,8 +336,9 @@ def _finish(c, hbox):  # pragma: no cover - compiled
 
 
 @njit(cache=True, _nrt=False)
-def _advance(c, dt, hbox):  # pragma: no cover - compiled
-    """``player._advance`` for creature ``c``: its times moved on by ``dt``, transitions started and finished."""
+def _advance(c, dt, hbox, buf, hb):  # pragma: no cover - compiled
+    """``player._advance`` for creature ``c``: its times moved on by ``dt``, transitions started and finished (``buf``,
+    ``hb``: its working arrays, for :func:`_start`)."""
     verbs, transitions, _, caches, state, head, outputs, k_ = _held(hbox)
     events, g_settle = outputs[4], outputs[5]
     verb, g, active, beta, length = state[0], state[1], state[4], state[5], state[6]
@@ -291,7 +357,7 @@ def _advance(c, dt, hbox):  # pragma: no cover - compiled
             clock = _clock_of(g[c], v, 0, c, verbs, caches) + dt
             at = _clock_of(max(nxt, g[c]), v, 0, c, verbs, caches)
             g[c] = max(nxt, min(g[c], 1.0))
-            _start(c, max(clock - at, 0.0), k, hbox)
+            _start(c, max(clock - at, 0.0), k, hbox, buf, hb)
             events[c] = STARTED
         else:
             g[c] = g_new
@@ -483,7 +549,7 @@ def _creature(c, dt, flags, turns, hbox, buf, hb):  # pragma: no cover
     offset_root, offset_since, offset_halflife, moving, root, held_before = state[15:21]
     rot, trans, vel_out, shown_rot, shown_trans, before_rot, before_trans, shown_vel = buffers
     held, roll, swing, kinds, _, _, lifts = outputs  # (events and g_settle: _advance's)
-    parents, feet, above_inv, body, arms = skeleton
+    parents, feet, above_inv, body, arms = skeleton[:5]
     d_a, d_b, e_a, e_b, vel, vel0, r1, r2, blend = scratch[:9]
     rot_b, trans_b, rot0, trans0, hb, rb, sb, wts = scratch[9:17]
     fk_now_pos, fk_now_rot, fk_was_pos, fk_was_rot, xb, rot_b0, trans_b0 = scratch[17:]
@@ -491,7 +557,7 @@ def _creature(c, dt, flags, turns, hbox, buf, hb):  # pragma: no cover
         _base(c, g[c], g_into[c], hbox, d_a, d_b, vel, blend)
         for a in range(3):
             moving[c, a] = vel[a]
-    _advance(c, dt, hbox)
+    _advance(c, dt, hbox, buf, hb)
     alpha = _base(c, g[c], g_into[c], hbox, d_a, d_b, vel, blend)
     reb = rebase[c] and has_shown
     rebase[c] = False

@@ -111,6 +111,9 @@ def tables(graph: Graph) -> Tables:
         np.array([v.lift_table.shape[1:] if v.holds and v.cyclic else (0, 2, 0) for v in vs], dtype=np.int64),
         *packed([v.root_accelerations for v in vs]),
         *packed([v.root_acceleration_profile for v in vs]),
+        *packed([v.joint_speed_profile for v in vs]),
+        *packed(list(graph.part_speeds)),
+        np.array([v.joint_speed_profile.shape for v in vs], dtype=np.int64),
     )  # fmt: skip
     ts = graph.transitions
     transitions = (
@@ -119,11 +122,12 @@ def tables(graph: Graph) -> Tables:
         np.array([t.blend == "inertial" for t in ts], dtype=np.bool_),
         np.ascontiguousarray(graph.between_verbs, dtype=np.bool_),
         np.ascontiguousarray(graph.carries_arms, dtype=np.int64),
+        np.ascontiguousarray(graph.paced_transitions, dtype=np.bool_),
     )
     skeleton = (
         np.asarray(graph.skeleton.parents, dtype=np.int64), np.ascontiguousarray(graph.feet_array, dtype=np.int64),
         np.ascontiguousarray(graph.inverse_above_body, dtype=float), int(vs[0].encoding.body_root),
-        np.ascontiguousarray(graph.arms, dtype=np.int64),
+        np.ascontiguousarray(graph.arms, dtype=np.int64), np.ascontiguousarray(graph.paced_joints, dtype=np.int64),
     )  # fmt: skip
     out = Tables(verbs, transitions, max(v.num_dofs for v in vs), skeleton)
     _TABLES[graph] = out
@@ -136,7 +140,8 @@ def _constants() -> np.ndarray:
         graph_state._LATE, graph_state.MIN_DURATION, graph_state.INERTIAL_HALFLIFE, planting._LN2, planted.REPLANT,
         planted.REPLANTED, planting.SWING_HALFLIFE, planting.LIFT_HALFLIFE, player.LANDS,
         planted.LEFT_BEHIND, planted.STEP_RISE, planted.STEP_DELAY, planted.STEP_LAND, graph_state.MIN_LOOP,
-        planted.STANDING, planted.SHIFTED, planting.SWING_LIFT, graph_state.ARMS_BLEND,
+        planted.STANDING, planted.SHIFTED, planting.SWING_LIFT, graph_state.ARMS_BLEND, graph_state.PACE,
+        graph_state.MOST_PACED,
     ])  # fmt: skip
 
 
