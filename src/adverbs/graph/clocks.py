@@ -60,7 +60,9 @@ def duration(
 PACED_AT = np.array([0.25, 0.5, 0.75])  # where in a blend paced_length compares the verbs' poses (β)
 
 
-def paced_length(state: GraphState, c: int, k: int, regions: tuple[float, float, float, float]) -> float:
+def paced_length(
+    state: GraphState, c: int, k: int, regions: tuple[float, float, float, float], caches: tuple | None = None
+) -> float:
     """The least length (seconds) of creature ``c``'s cosine blend through transition ``k`` over ``regions`` ``(sa,
     ea, sb, eb)`` (generic times) for no part of :attr:`Graph.paced` to turn faster, by the blending alone, than
     :data:`PACE` times its own fastest in the two verbs, up to :data:`MOST_PACED`.
@@ -69,7 +71,8 @@ def paced_length(state: GraphState, c: int, k: int, regions: tuple[float, float,
     over ``T`` seconds. ``θ`` is measured at ``β`` = :data:`PACED_AT` (A and B at those fractions of their regions,
     by generic time, at the creature's adverbs); ``ω``, the part's own fastest at the creature's weights
     (``Graph.own_speeds``), the larger of A's and B's: ``T = π max(sin(βπ) θ / ω) / (2 PACE)``. The frame kernel's
-    ``_paced``, the same."""
+    ``_paced``, the same. ``caches``: A's and B's :class:`SamplingState` (slots 0 and 1), up to date, if the caller
+    has them."""
     from ..verb.sampling import GENERIC, run_kernel  # (sampling imports the verbs' kernel: kept out of import time)
 
     graph = state.graph
@@ -77,8 +80,10 @@ def paced_length(state: GraphState, c: int, k: int, regions: tuple[float, float,
     sa, ea, sb, eb = regions
     rows = np.full(len(PACED_AT), c, dtype=np.int64)
     rot, omega = [], []
-    for v, slot, s, e in ((t.source, 0, sa, ea), (t.target, 1, sb, eb)):
-        verb, cache = graph.verbs[v], _sampling(state, v, slot)
+    if caches is None:
+        caches = (_sampling(state, t.source, 0), _sampling(state, t.target, 1))
+    for v, cache, s, e in ((t.source, caches[0], sa, ea), (t.target, caches[1], sb, eb)):
+        verb = graph.verbs[v]
         d = run_kernel(verb, cache, rows, np.clip(s + PACED_AT * (e - s), 0.0, 1.0), GENERIC)
         rot.append(verb.encoding.decode_pose(d, np.zeros(3))[0])
         omega.append(graph.own_speeds(v, cache.weights[c]))

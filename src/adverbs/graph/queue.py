@@ -142,8 +142,8 @@ def _start(state: GraphState, c: int, late: float, inertial: bool = False) -> No
     if b.cyclic and eb >= 1.0:  # B plays the end of its previous cycle
         sb, eb = sb - 1.0, eb - 1.0
     row = np.array([c])
-    keys_a = _sampling(state, t.source, 0).keytimes[row]
-    keys_b = _sampling(state, t.target, 1).keytimes[row]
+    caches = _sampling(state, t.source, 0), _sampling(state, t.target, 1)
+    keys_a, keys_b = caches[0].keytimes[row], caches[1].keytimes[row]
     length = float(duration((sa, ea), (sb, eb), keys_a, keys_b, a.generic_keytimes, b.generic_keytimes)[0])
     cut = inertial or t.blend == "inertial"  # B at once: A is not played through its region
     if whole:  # not shorter than B's region: B's clock never runs faster than its own
@@ -156,7 +156,7 @@ def _start(state: GraphState, c: int, late: float, inertial: bool = False) -> No
             whole_a = duration(t.source_region, (sb, eb), keys_a, keys_b, a.generic_keytimes, b.generic_keytimes)[0]
             length = max(length, float(whole_a))
     if not cut and graph.paced_transitions[k]:  # long enough for no part to turn too fast by the blend alone
-        length = max(length, paced_length(state, c, k, (sa, ea, sb, eb)))
+        length = max(length, paced_length(state, c, k, (sa, ea, sb, eb), caches))
     state.active[c], state.into[c] = k, t.target
     state.regions[c] = (sa, ea, sb, eb)
     state.length[c] = max(length, MIN_LOOP if t.source == t.target else MIN_DURATION)

@@ -288,14 +288,23 @@ class Graph:
             np.stack([v.joint_speed_profile[..., p].max(axis=(1, 2)) for p in self.paced], axis=1) for v in self.verbs
         )
 
+    @cached_property
+    def _paced_profiles(self) -> tuple[tuple[np.ndarray, ...], ...]:
+        """Per verb, per part of :attr:`paced`: its examples' joint speeds there ``(E_v, S · J_p)`` (one product with
+        a creature's weights blends them all)."""
+        return tuple(
+            tuple(np.ascontiguousarray(v.joint_speed_profile[..., p].reshape(len(v.joint_speed_profile), -1)) for p in self.paced)
+            for v in self.verbs
+        )  # fmt: skip
+
     def own_speeds(self, v: int, weights: np.ndarray) -> np.ndarray:
         """Verb ``v``'s fastest joint of each of :attr:`paced` ``(P,)`` at cardinal ``weights (E_v,)``, rad/s: its
         examples' :attr:`Verb.joint_speed_profile` blended with the weights at each generic time, at its fastest, kept
         within the examples' own (:attr:`part_speeds`)."""
-        profile, speeds = self.verbs[v].joint_speed_profile, self.part_speeds[v]
-        blended = np.einsum("e,esj->sj", np.asarray(weights, dtype=float)[: len(profile)], profile)
-        own = np.array([blended[:, p].max() for p in self.paced])
-        return np.clip(own, speeds.min(axis=0), speeds.max(axis=0))
+        profiles, speeds = self._paced_profiles[v], self.part_speeds[v]
+        w = np.asarray(weights, dtype=float)[: len(speeds)]
+        own = np.array([(w @ m).max() for m in profiles])
+        return np.minimum(np.maximum(own, speeds.min(axis=0)), speeds.max(axis=0))
 
     @cached_property
     def paced_transitions(self) -> np.ndarray:
