@@ -102,3 +102,13 @@ def test_unwrap_euler_is_its_reference_and_leaves_no_jump():
     # along another axis, and one sample
     np.testing.assert_array_equal(quat.unwrap_euler("zyx", angles.swapaxes(0, 1), axis=1), _unwrap_reference(angles).swapaxes(0, 1))
     assert quat.unwrap_euler("zyx", angles[:1]).shape == (1, 5, 3)
+
+
+def test_the_angle_between_rotations_is_scipys_magnitude_of_the_one_between():
+    """``quat.angle(a, b)``: the magnitude of ``a b⁻¹`` as scipy has it, whatever either's sign, and symmetric."""
+    a, b = Q[:250], Q[250:]
+    want = (Rotation.from_quat(a) * Rotation.from_quat(b).inv()).magnitude()
+    np.testing.assert_allclose(quat.angle(a, b), want, rtol=0, atol=1e-7)
+    np.testing.assert_allclose(quat.angle(-a, b), want, rtol=0, atol=1e-7)
+    np.testing.assert_array_equal(quat.angle(a, b), quat.angle(b, a))
+    assert np.all(quat.angle(a, a) < 1e-7)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..kinematics import quat
 from ..verb.sampling import SamplingState
 from ._time_kernel import clock_rows, generic_rows, later_rows
 from .state import MOST_PACED, PACE, GraphState
@@ -87,8 +88,7 @@ def paced_length(
         d = run_kernel(verb, cache, rows, np.clip(s + PACED_AT * (e - s), 0.0, 1.0), GENERIC)
         rot.append(verb.encoding.decode_pose(d, np.zeros(3))[0])
         omega.append(graph.own_speeds(v, cache.weights[c]))
-    cos = np.minimum(np.abs(np.sum(rot[0] * rot[1], axis=-1)), 1.0)
-    turn = 2.0 * np.arccos(cos) * np.sin(np.pi * PACED_AT)[:, None]  # (β, J)
+    turn = quat.angle(rot[0], rot[1]) * np.sin(np.pi * PACED_AT)[:, None]  # (β, J)
     own = np.maximum(omega[0], omega[1])
     need = max(float(turn[:, p].max()) / max(float(own[i]), 1e-9) for i, p in enumerate(graph.paced))
     return min(0.5 * np.pi * need / PACE, MOST_PACED)

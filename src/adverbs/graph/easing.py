@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..kinematics import quat
+
 EASE = 0.5  # seconds: the least an adverb change takes by default
 MOST_EASE = 3.0  # seconds: ... and the most (a stand's mood: its body hardly moves, and any change is faster)
 HEADROOM = 0.5  # an eased change turns a part at most this share of the part's own fastest in its verb
@@ -75,14 +77,6 @@ class Easing:
             points[done] = self.to[done]
 
 
-def _angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The angle (radians) between rotations ``a`` and ``b``, element by element."""
-    from ..kinematics import quat
-
-    q = quat.mul(a, quat.inv(b))
-    return 2.0 * np.arccos(np.clip(np.abs(q[..., 3]), 0.0, 1.0))
-
-
 def _sampled(graph, v: int, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Verb ``v`` over its whole generic time at verb points ``points (Q, A_v)``: its rotations ``(Q, G, J, 4)`` and
     each part's fastest joint at the first and the last point ``(2, P)`` (rad/s, between samples, by the verb's clock
@@ -97,7 +91,7 @@ def _sampled(graph, v: int, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     rot = rot.reshape(len(points), len(g), -1, 4)
     ends = rot[[0, -1]]
     seconds = np.stack([clock_time(g, verb.keytimes(p), verb.generic_keytimes) for p in points[[0, -1]]])
-    speed = _angle(ends[:, 1:], ends[:, :-1]) / np.maximum(np.diff(seconds, axis=1), 1e-9)[..., None]
+    speed = quat.angle(ends[:, 1:], ends[:, :-1]) / np.maximum(np.diff(seconds, axis=1), 1e-9)[..., None]
     return rot, np.stack([speed[..., j].max(axis=(1, 2)) for j in graph.parts], axis=1)
 
 
@@ -121,7 +115,7 @@ def ease_length(graph, verbs, shown: np.ndarray, target: np.ndarray) -> float:
         if path.shape[1] == 0 or np.array_equal(path[0], path[-1]):
             continue
         rot, own = _sampled(graph, v, path)
-        steepest = _angle(rot[1:], rot[:-1]).max(axis=1) * (_PATH - 1)  # (pieces, J)
+        steepest = quat.angle(rot[1:], rot[:-1]).max(axis=1) * (_PATH - 1)  # (pieces, J)
         turn = np.array([steepest[:, j].max() for j in graph.parts])
         need = max(need, float((_PEAK * turn / (HEADROOM * np.maximum(own.max(axis=0), 1e-6))).max()))
     return float(np.clip(need, EASE, MOST_EASE))

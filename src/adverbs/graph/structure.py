@@ -284,9 +284,7 @@ class Graph:
     def part_speeds(self) -> tuple[np.ndarray, ...]:
         """Per verb: each example's fastest joint of each of :attr:`paced` ``(E_v, P)``, rad/s
         (:attr:`Verb.joint_speed_profile`)."""
-        return tuple(
-            np.stack([v.joint_speed_profile[..., p].max(axis=(1, 2)) for p in self.paced], axis=1) for v in self.verbs
-        )
+        return tuple(np.stack([m.max(axis=1) for m in profiles], axis=1) for profiles in self._paced_profiles)
 
     @cached_property
     def _paced_profiles(self) -> tuple[tuple[np.ndarray, ...], ...]:
@@ -308,7 +306,7 @@ class Graph:
 
     @cached_property
     def paced_transitions(self) -> np.ndarray:
-        """Whether each transition's blend is paced by the parts' speeds ``(T,)`` (``queue.paced_length``): a cosine
+        """Whether each transition's blend is paced by the parts' speeds ``(T,)`` (``clocks.paced_length``): a cosine
         blend from one one-shot verb into another, a stand into a gesture and back. A cycle's blends are timed by its
         feet (a stop lands the swinging foot as the stand takes it)."""
         cyclic = self.cyclic
@@ -365,9 +363,12 @@ class Graph:
         :meth:`draw` draws by): ``numpy.random.Generator.choice``'s, as it makes it from ``p``."""
         out = []
         for ways in self._leaving:
+            if not ways:
+                out.append([])
+                continue
             p = np.array([self.transitions[k].likelihood for k in ways])
-            cdf = (p / p.sum()).cumsum() if ways else p
-            out.append((cdf / cdf[-1]).tolist() if ways else [])
+            cdf = (p / p.sum()).cumsum()
+            out.append((cdf / cdf[-1]).tolist())
         return tuple(out)
 
     def point(self, values: dict[str, float] | Sequence[float] | np.ndarray | None = None) -> np.ndarray:

@@ -39,6 +39,12 @@ def inv(q: np.ndarray) -> np.ndarray:
     return q * np.array([-1.0, -1.0, -1.0, 1.0])
 
 
+def angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The angle (radians, 0 to π) of the rotation between unit quaternions ``a`` and ``b`` ``(..., 4)``,
+    broadcasting: ``2 arccos |a · b|``."""
+    return 2.0 * np.arccos(np.minimum(np.abs(np.sum(a * b, axis=-1)), 1.0))
+
+
 def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Rotate vectors ``v (..., 3)`` by unit quaternions ``q (..., 4)``.
 

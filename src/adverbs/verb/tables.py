@@ -32,6 +32,7 @@ import numpy as np
 from ..errors import AdverbsError
 from ..interp import bspline, timewarp
 from ..interp.rbf import AdverbInterpolator
+from ..kinematics import quat
 from ..kinematics.ik import LegChains
 from ..kinematics.skeleton import Skeleton
 from ..motion.clip import Clip
@@ -421,13 +422,13 @@ class Verb:
         time between them. Blended with a creature's weights at each generic time (the examples are aligned there),
         its fastest is near the verb's own at the creature's adverbs (0.67-1.37x what its poses there show on the
         Bandai stand and gestures; the sad bow's trunk 1.03x, where the examples' fastest blended said 1.4x): how long
-        a blend between standing verbs must be (``clocks.paced_turn``).
+        a blend between standing verbs must be (``clocks.paced_length``).
 
         Derived from the tables alone, computed on first use and kept (it never changes).
         """
         generic = np.linspace(0.0, 1.0, SPEED_SAMPLES)
         rot, _ = self.encoding.decode_pose(self._example_samples(SPEED_SAMPLES), np.zeros(3))  # (E, S + 1, J, 4)
-        turn = 2.0 * np.arccos(np.clip(np.abs(np.sum(rot[:, 1:] * rot[:, :-1], axis=-1)), 0.0, 1.0))
+        turn = quat.angle(rot[:, 1:], rot[:, :-1])
         step = np.diff(np.stack([timewarp.clock_time(generic, k, self.generic_keytimes) for k in self.keytimes_table]))
         return _frozen(turn / step[..., None])
 
