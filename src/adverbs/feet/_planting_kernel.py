@@ -514,7 +514,7 @@ def step(parents, rotations, translations, generic, inside_in, turn_in, swing_in
     (``_ik_kernel.solve_batch``).
 
     ``chain = (above, upper, middle, end, hinge, upper_offset, end_offset, reach)``: ``ik.LegChains``;
-    ``ik_params = (min_flex, iterations, λ², max step, converged, max drop)``; ``out = (gpos, grot, targets, wanted,
+    ``ik_params = (min_flex, converged, max drop)``; ``out = (gpos, grot, targets, wanted,
     root_drop, residual)``: FK, the planter's targets and orientations, the IK's root drop and misses.
     Returns whether every target is finite (if not, the IK is not run).
     """
@@ -528,7 +528,7 @@ def _step(parents, rotations, translations, generic, inside_in, turn_in, swing_i
           times, cyclic, verb_floor, tips, root, legs, k_, floor, state, chain, ik_params, out, buf):  # fmt: skip
     """:func:`step` in its working array ``buf`` (not counted: see ``runtime._frame_kernel``)."""
     above, upper, middle, end, hinge, upper_offset, end_offset, reach_ = chain
-    min_flex, iterations, lam2, max_step, converged, max_drop = ik_params
+    min_flex, converged, max_drop = ik_params
     gpos, grot, targets, wanted, root_drop, residual = out
     tip, drop = legs[3], state[15]
     n_c, n_l = rotations.shape[0], len(tips)
@@ -568,5 +568,5 @@ def _step(parents, rotations, translations, generic, inside_in, turn_in, swing_i
                 if not math.isfinite(targets[c, i, a]):
                     return False  # ik.solve refuses these
     solve_batch(rotations, translations, targets, tilts, above, upper, middle, end, hinge, upper_offset,
-                end_offset, tip, reach_, min_flex, iterations, lam2, max_step, converged, max_drop, root_drop, residual)  # fmt: skip
+                end_offset, tip, reach_, min_flex, converged, max_drop, root_drop, residual)  # fmt: skip
     return True

@@ -502,7 +502,7 @@ class _Compiled:
         joints = (np.asarray(a, dtype=np.int64) for a in (chains.above, chains.upper, chains.middle, chains.end))
         axes = (np.ascontiguousarray(a, dtype=float) for a in (chains.hinge, chains.upper_offset, chains.end_offset))
         self.chain = (*joints, *axes, reach)
-        self.ik_params = (float(chains.min_flex), ik.ITERATIONS, ik.DAMPING**2, ik.MAX_STEP, ik.CONVERGED, self.max_drop)
+        self.ik_params = (float(chains.min_flex), ik.CONVERGED, self.max_drop)
         self.parents = np.asarray(verb.skeleton.parents, dtype=np.int64)
         self.tips = planter.tips.astype(np.int64)
         self.root = int(verb.encoding.body_root)

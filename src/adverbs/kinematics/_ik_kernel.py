@@ -1,4 +1,5 @@
-"""The compiled loop behind :func:`adverbs.kinematics.ik.solve`: the algorithm of ``ik.solve_reference``, pose by pose.
+"""The compiled loop behind :func:`adverbs.kinematics.ik.solve`: the closed-form two-bone solve of
+``ik.solve_reference``, pose by pose.
 
 Every step mirrors the NumPy reference (same order of operations), so the two agree to rounding;
 a test holds them to it.
@@ -92,7 +93,14 @@ def _mv(a, v, out):
 @njit(cache=True, inline="always")
 def _rotation(ax, ay, az, angle, out):
     """Rotation matrix about the unit axis (ax, ay, az) by ``angle`` (Rodrigues)."""
-    s, c = math.sin(angle), 1.0 - math.cos(angle)
+    _turn(ax, ay, az, math.sin(angle), 1.0 - math.cos(angle), out)
+
+
+@njit(cache=True, inline="always")
+def _turn(ax, ay, az, s, c, out):
+    """``I + s K + c K²``, ``K`` the cross-product matrix of (ax, ay, az): about a unit axis, the rotation whose angle
+    has sine ``s`` and ``1 − cos`` ``c`` (Rodrigues); about ``v × w`` of unit vectors with ``s = 1`` and
+    ``c = 1 / (1 + v · w)``, the least rotation taking ``v`` onto ``w``."""
     out[0, 0] = 1.0 + c * (-az * az - ay * ay)
     out[0, 1] = -s * az + c * ax * ay
     out[0, 2] = s * ay + c * ax * az
@@ -106,20 +114,20 @@ def _rotation(ax, ay, az, angle, out):
 
 @njit(cache=True, _nrt=True)  # allocates: counts even when its caller is compiled without counting
 def solve_batch(
-    rot, trans, targets, tilts, above, upper, middle, end, hinge, o_u, o_e, tip, reach, min_flex,
-    iterations, lam2, max_step, converged, max_drop, drop_out, resid_out,
+    rot, trans, targets, tilts, above, upper, middle, end, hinge, o_u, o_e, tip, reach, min_flex, converged, max_drop,
+    drop_out, resid_out,
 ):  # fmt: skip
-    buf = np.empty(7 * 9 + 6 * 3 + len(end) * 33)
+    buf = np.empty(7 * 9 + 4 * 3 + len(end) * 33)
     _solve_batch(
-        rot, trans, targets, tilts, above, upper, middle, end, hinge, o_u, o_e, tip, reach, min_flex, iterations, lam2,
-        max_step, converged, max_drop, drop_out, resid_out, buf,
+        rot, trans, targets, tilts, above, upper, middle, end, hinge, o_u, o_e, tip, reach, min_flex, converged,
+        max_drop, drop_out, resid_out, buf,
     )  # fmt: skip
 
 
 @njit(cache=True, _nrt=False)
 def _solve_batch(
-    rot, trans, targets, tilts, above, upper, middle, end, hinge, o_u, o_e, tip, reach, min_flex,
-    iterations, lam2, max_step, converged, max_drop, drop_out, resid_out, buf,
+    rot, trans, targets, tilts, above, upper, middle, end, hinge, o_u, o_e, tip, reach, min_flex, converged, max_drop,
+    drop_out, resid_out, buf,
 ):  # fmt: skip
     """:func:`solve_batch` in its working array ``buf`` (not counted: see ``runtime._frame_kernel``)."""
     n_legs = len(end)
@@ -133,9 +141,7 @@ def _solve_batch(
     p, at = carve(buf, at, (3,))
     v3, at = carve(buf, at, (3,))
     shin, at = carve(buf, at, (3,))
-    knee, at = carve(buf, at, (3,))
     leg, at = carve(buf, at, (3,))
-    hg, at = carve(buf, at, (3,))
     hips, at = carve(buf, at, (n_legs, 3))
     goals, at = carve(buf, at, (n_legs, 3))
     l_u, at = carve(buf, at, (n_legs, 3, 3))
@@ -188,49 +194,65 @@ def _solve_batch(
         for i in range(n_legs):
             _mm(g, l_u[i], g_u)
             hx, hy, hz = hinge[i, 0], hinge[i, 1], hinge[i, 2]
-            for _ in range(iterations):
-                _mv(l_m[i], o_e[i], shin)
-                _mv(g_u, o_u[i], v3)
-                for a in range(3):
-                    knee[a] = hips[i, a] + v3[a]
-                _mv(g_u, shin, leg)
-                rx = goals[i, 0] - knee[0] - leg[0]
-                ry = goals[i, 1] - knee[1] - leg[1]
-                rz = goals[i, 2] - knee[2] - leg[2]
-                ux, uy, uz = o_u[i, 0], o_u[i, 1], o_u[i, 2]
-                ax, ay, az = uy * shin[2] - uz * shin[1], uz * shin[0] - ux * shin[2], ux * shin[1] - uy * shin[0]
-                flex = math.atan2(hx * ax + hy * ay + hz * az, ux * shin[0] + uy * shin[1] + uz * shin[2])
-                if math.sqrt(rx * rx + ry * ry + rz * rz) <= converged and flex >= min_flex:
-                    break  # at its target, knee bent enough: no later iteration would move it (ik.CONVERGED)
-                vx = knee[0] + leg[0] - hips[i, 0]
-                vy = knee[1] + leg[1] - hips[i, 1]
-                vz = knee[2] + leg[2] - hips[i, 2]
-                _mv(g_u, hinge[i], hg)
-                cx = hg[1] * leg[2] - hg[2] * leg[1]
-                cy = hg[2] * leg[0] - hg[0] * leg[2]
-                cz = hg[0] * leg[1] - hg[1] * leg[0]
-                alpha = vx * vx + vy * vy + vz * vz + lam2
-                vr = (vx * rx + vy * ry + vz * rz) / lam2
-                brx, bry, brz = (rx + vx * vr) / alpha, (ry + vy * vr) / alpha, (rz + vz * vr) / alpha
-                vc = (vx * cx + vy * cy + vz * cz) / lam2
-                bcx, bcy, bcz = (cx + vx * vc) / alpha, (cy + vy * vc) / alpha, (cz + vz * vc) / alpha
-                f = (cx * brx + cy * bry + cz * brz) / (1.0 + cx * bcx + cy * bcy + cz * bcz)
-                yx, yy, yz = brx - bcx * f, bry - bcy * f, brz - bcz * f
-                sx, sy, sz = vy * yz - vz * yy, vz * yx - vx * yz, vx * yy - vy * yx
-                ks = cx * yx + cy * yy + cz * yz
-                size = math.sqrt(sx * sx + sy * sy + sz * sz + ks * ks)
-                shrink = min(1.0, max_step / max(size, 1e-12))
-                sx, sy, sz, ks = sx * shrink, sy * shrink, sz * shrink, ks * shrink
-                angle = math.sqrt(sx * sx + sy * sy + sz * sz)
-                if angle >= 1e-12:
-                    _rotation(sx / angle, sy / angle, sz / angle, angle, step)
-                    _mm(step, g_u, tmp)
-                    _copy33(tmp, g_u)
-                # knee about its hinge, flexion kept at or above min_flex
-                turn = max(flex + ks, min_flex) - flex
-                _rotation(hx, hy, hz, turn, step)
+            ux, uy, uz = o_u[i, 0], o_u[i, 1], o_u[i, 2]
+            _mv(l_m[i], o_e[i], shin)
+            sx, sy, sz = shin[0], shin[1], shin[2]
+            v3[0], v3[1], v3[2] = ux + sx, uy + sy, uz + sz
+            _mv(g_u, v3, leg)
+            rx = goals[i, 0] - hips[i, 0] - leg[0]
+            ry = goals[i, 1] - hips[i, 1] - leg[1]
+            rz = goals[i, 2] - hips[i, 2] - leg[2]
+            ax, ay, az = uy * sz - uz * sy, uz * sx - ux * sz, ux * sy - uy * sx
+            flex = math.atan2(hx * ax + hy * ay + hz * az, ux * sx + uy * sy + uz * sz)
+            if not (math.sqrt(rx * rx + ry * ry + rz * rz) <= converged and flex >= min_flex):
+                # The knee about its hinge by the θ that gives the target's distance (ik.solve_reference).
+                along = hx * sx + hy * sy + hz * sz
+                lx, ly, lz = along * hx, along * hy, along * hz
+                cx, cy, cz = sx - lx, sy - ly, sz - lz
+                tx, ty, tz = hy * sz - hz * sy, hz * sx - hx * sz, hx * sy - hy * sx
+                ka = ux * lx + uy * ly + uz * lz
+                kb = ux * cx + uy * cy + uz * cz
+                kc = ux * tx + uy * ty + uz * tz
+                px, py, pz = uy * cz - uz * cy, uz * cx - ux * cz, ux * cy - uy * cx
+                kp = hx * px + hy * py + hz * pz
+                qx, qy, qz = uy * tz - uz * ty, uz * tx - ux * tz, ux * ty - uy * tx
+                kq = hx * qx + hy * qy + hz * qz
+                ox, oy, oz = goals[i, 0] - hips[i, 0], goals[i, 1] - hips[i, 1], goals[i, 2] - hips[i, 2]
+                k = 0.5 * ((ox * ox + oy * oy + oz * oz) - (ux * ux + uy * uy + uz * uz) - (sx * sx + sy * sy + sz * sz))
+                radius = math.sqrt(kb * kb + kc * kc)
+                flat = radius < 1e-12
+                if flat:
+                    radius = 1.0
+                x = min(max((k - ka) / radius, -1.0), 1.0)
+                cos_a, sin_a = x, math.sqrt(1.0 - x * x)
+                cos_p, sin_p = kb / radius, kc / radius
+                cos_1, sin_1 = cos_p * cos_a - sin_p * sin_a, sin_p * cos_a + cos_p * sin_a
+                cos_2, sin_2 = cos_p * cos_a + sin_p * sin_a, sin_p * cos_a - cos_p * sin_a
+                ok_1 = math.atan2(kp * cos_1 + kq * sin_1, ka + kb * cos_1 + kc * sin_1) >= min_flex
+                ok_2 = math.atan2(kp * cos_2 + kq * sin_2, ka + kb * cos_2 + kc * sin_2) >= min_flex
+                if ok_1 and (not ok_2 or cos_1 >= cos_2):
+                    cos_t, sin_t = cos_1, sin_1
+                else:
+                    cos_t, sin_t = cos_2, sin_2
+                if not (ok_1 or ok_2) or flat:  # at or past its reach: flexion min_flex, the leg aimed at it
+                    turn = min_flex - flex
+                    cos_t, sin_t = math.cos(turn), math.sin(turn)
+                _turn(hx, hy, hz, sin_t, 1.0 - cos_t, step)
                 _mm(step, l_m[i], tmp)
                 _copy33(tmp, l_m[i])
+                # The hip: the least rotation taking the leg's direction onto the target's.
+                _mv(l_m[i], o_e[i], shin)
+                v3[0], v3[1], v3[2] = ux + shin[0], uy + shin[1], uz + shin[2]
+                _mv(g_u, v3, leg)
+                n = math.sqrt(leg[0] * leg[0] + leg[1] * leg[1] + leg[2] * leg[2])
+                vx, vy, vz = leg[0] / n, leg[1] / n, leg[2] / n
+                n = max(math.sqrt(ox * ox + oy * oy + oz * oz), 1e-300)
+                wx, wy, wz = ox / n, oy / n, oz / n
+                cos_s = vx * wx + vy * wy + vz * wz
+                if not (1.0 + cos_s < 1e-12):
+                    _turn(vy * wz - vz * wy, vz * wx - vx * wz, vx * wy - vy * wx, 1.0, 1.0 / (1.0 + cos_s), step)
+                    _mm(step, g_u, tmp)
+                    _copy33(tmp, g_u)
             _mv(l_m[i], o_e[i], shin)
             for a in range(3):
                 shin[a] += o_u[i, a]

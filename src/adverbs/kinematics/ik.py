@@ -1,18 +1,26 @@
-"""Inverse kinematics for planted feet (§3.3, eq. 2): damped least squares on two-bone chains.
+"""Inverse kinematics for planted feet (§3.3, eq. 2): two-bone chains solved in closed form.
 
 Each constrained effector (an ankle) hangs from a two-bone chain: the upper joint (hip) with three
-rotational DOFs and the middle joint (knee) bending about a hinge. Every iteration solves
+rotational DOFs and the middle joint (knee) bending about a hinge. Eq. 2 asks for the change of the chain's
+DOFs that takes the effector from where the verb put it to its target, ``J Δθ = Δx``; for a two-bone chain
+that change has a closed form (what iterating damped least squares on ``J`` converges to, without its
+iterations), two steps per leg:
 
-    J Δθ = Δx,    Δθ = Jᵀ (J Jᵀ + λ² I)⁻¹ Δx                      (damped least squares)
+1. the knee turns about its hinge by the ``θ`` that makes the hip-to-ankle distance the target's: with the
+   shin ``s`` split along the hinge ``h`` and across it, ``|o_u + R(h, θ) s|² = |o_u|² + |s|² + 2 (a + b cos θ
+   + c sin θ)``, one ``cos(θ − φ)``; of its two roots the one that bends the knee forward (flexion at least
+   ``min_flex``) and turns it least;
+2. the hip turns by the least rotation that takes the hip-to-ankle direction onto the target's (no turn about
+   the leg's own axis: the knee stays in the plane the verb has it in, as the least-squares steps leave it).
 
-with the analytic Jacobian ``J = [ −[p_e − p_u]× | h × (p_e − p_m) ]`` (3 × 4: hip rotations about the
-world axes, then the knee hinge ``h``). ``J Jᵀ = (‖v‖² + λ²) I − v vᵀ + c cᵀ`` has a closed-form inverse
-(Sherman–Morrison), so an iteration is a handful of vector operations, batched over any leading axes
-(creatures, frames) and over the legs. The knee is kept from hyper-extending (flexion ≥ ``min_flex``),
-the root is lowered when a target is beyond the leg's reach (by at most half a leg: a pit is not
-reached by squatting into it; what stays out of reach is reported), and only the chain's joints change: the
-effector's own rotation is set so the foot keeps its global orientation (tilted to the ground's slope
-when a tilt is given).
+A target past the leg's reach leaves the knee at ``min_flex`` and the leg aimed at it (its miss reported); the
+knee is never hyper-extended. The root is lowered when a target is beyond the leg's reach (by at most half a
+leg: a pit is not reached by squatting into it; what stays out of reach is reported), and only the chain's
+joints change: the effector's own rotation is set so the foot keeps its global orientation (tilted to the
+ground's slope when a tilt is given). Against eight damped least-squares iterations (what this replaced), on the
+feet of a planted Bandai crowd: the same knees (1e-4 degrees), hips and ankles within 1.2 degrees (median 0.02:
+the turn about the leg's axis the iterations' path left), the feet on their targets to 1e-15 m where the
+iterations left 2e-7.
 """
 
 from __future__ import annotations
@@ -27,13 +35,10 @@ from . import quat
 from .skeleton import Skeleton
 
 REACH = 0.995  # fraction of the straight leg's length a target may ask for
-MAX_STEP = 0.25  # radians: the largest joint change of one iteration
-ITERATIONS = 8
 MAX_DROP = 0.5  # the root is lowered by at most this fraction of the shortest leg's reach
-DAMPING = 0.01  # λ, metres
 MISS = 1e-3  # metres: an effector farther than this from its target counts as out of reach
-# metres: a chain whose effector is this near its target, its knee bent at least ``min_flex``, is done: further
-# iterations would not move it (most chains of a crowd's frame are feet already where the verb puts them)
+# metres: a chain whose effector is this near its target, its knee bent at least ``min_flex``, is left as the verb
+# has it (most chains of a crowd's frame are feet already where the verb puts them)
 CONVERGED = 1e-7
 
 
@@ -139,13 +144,11 @@ def _heel_axes(skeleton: Skeleton, ends: Sequence[int], tip_offset: np.ndarray, 
     return axes
 
 
-def _checked(rotations, translations, targets, damping) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Copies of the pose and the targets as float arrays; non-finite targets and λ ≤ 0 are refused."""
+def _checked(rotations, translations, targets) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Copies of the pose and the targets as float arrays; non-finite targets are refused."""
     targets = np.asarray(targets, dtype=float)
     if not np.all(np.isfinite(targets)):
         raise AdverbsError("IK targets must be finite (got NaN or infinity)")
-    if not (np.isfinite(damping) and damping > 0):
-        raise AdverbsError(f"IK damping must be a positive number of metres, got {damping}")
     return np.array(rotations, dtype=float), np.array(translations, dtype=float), targets
 
 
@@ -166,8 +169,6 @@ def solve_reference(
     translations: np.ndarray,
     targets: np.ndarray,
     tilts: np.ndarray | None = None,
-    iterations: int = ITERATIONS,
-    damping: float = DAMPING,
     min_drop: np.ndarray | float = 0.0,
 ) -> IKResult:
     """Move each chain's effector to its target, changing only the chains' joints and the root height.
@@ -180,14 +181,13 @@ def solve_reference(
         Where each effector (the chain's end, or its tip) should be, world space.
     tilts : (..., L, 3, 3), optional
         Extra rotation of each effector's global orientation (the ground's slope); default none.
-    iterations, damping : DLS iterations and λ (metres).
     min_drop : (...,), optional
         Lower the root at least this much (metres), e.g. to let a root drop fade out smoothly.
 
     This is the readable NumPy version, vectorized over the leading axes; :func:`solve` computes the
     same with a compiled loop (numba), which is what run time uses.
     """
-    rotations, translations, targets = _checked(rotations, translations, targets, damping)
+    rotations, translations, targets = _checked(rotations, translations, targets)
     lead = rotations.shape[:-2]
 
     # The hips' parent frame, by FK along the few joints above them.
@@ -221,43 +221,58 @@ def solve_reference(
 
     g_upper = g_parent @ l_upper
     hinge, o_u, o_e = chains.hinge, chains.upper_offset, chains.end_offset
+    shin = (l_middle @ o_e[..., None])[..., 0]  # ankle from knee, in the hip's frame
+    r = targets - hip - (g_upper @ (o_u + shin)[..., None])[..., 0]
+    flex = np.arctan2(np.sum(hinge * np.cross(o_u, shin), axis=-1), np.sum(o_u * shin, axis=-1))
+    # A chain at its target with its knee bent enough stays as it is.
+    done = (np.sqrt(np.sum(r * r, axis=-1)) <= CONVERGED) & (flex >= chains.min_flex)
+    # The knee: turned about its hinge by θ, the shin is s∥ + cos θ s⊥ + sin θ (h × s), and the hip-to-ankle
+    # distance² |o_u + shin|² = |o_u|² + |s|² + 2 (a + b cos θ + c sin θ): the θ that gives the target's distance.
+    along = np.sum(hinge * shin, axis=-1)[..., None] * hinge
+    across, turned = shin - along, np.cross(hinge, shin)
+    a, b, c = np.sum(o_u * along, axis=-1), np.sum(o_u * across, axis=-1), np.sum(o_u * turned, axis=-1)
+    p_, q_ = np.sum(hinge * np.cross(o_u, across), axis=-1), np.sum(hinge * np.cross(o_u, turned), axis=-1)
+    to = targets - hip
+    k = 0.5 * (np.sum(to * to, axis=-1) - np.sum(o_u * o_u, axis=-1) - np.sum(shin * shin, axis=-1))
+    radius = np.sqrt(b * b + c * c)
+    flat = radius < 1e-12  # the shin along the hinge or the thigh: the knee cannot change the distance
+    radius = np.where(flat, 1.0, radius)
+    x = np.clip((k - a) / radius, -1.0, 1.0)  # cos(θ − φ); beyond reach (or nearer than the knee bends), the nearest
+    cos_a, sin_a = x, np.sqrt(1.0 - x * x)
+    cos_p, sin_p = b / radius, c / radius
+    cos_1, sin_1 = cos_p * cos_a - sin_p * sin_a, sin_p * cos_a + cos_p * sin_a  # θ = φ + α
+    cos_2, sin_2 = cos_p * cos_a + sin_p * sin_a, sin_p * cos_a - cos_p * sin_a  # θ = φ − α
+    flex_1 = np.arctan2(p_ * cos_1 + q_ * sin_1, a + b * cos_1 + c * sin_1)
+    flex_2 = np.arctan2(p_ * cos_2 + q_ * sin_2, a + b * cos_2 + c * sin_2)
+    ok_1, ok_2 = flex_1 >= chains.min_flex, flex_2 >= chains.min_flex
+    first = ok_1 & (~ok_2 | (cos_1 >= cos_2))  # the knee bent forward, turned the least
+    cos_t, sin_t = np.where(first, cos_1, cos_2), np.where(first, sin_1, sin_2)
+    # Neither bends it enough (the target at or past the leg's reach): flexion min_flex, the leg aimed at it.
+    least = ~(ok_1 | ok_2) | flat
+    turn = np.where(least, chains.min_flex - flex, 0.0)
+    cos_t = np.where(least, np.cos(turn), cos_t)
+    sin_t = np.where(least, np.sin(turn), sin_t)
+    cos_t, sin_t = np.where(done, 1.0, cos_t), np.where(done, 0.0, sin_t)
     hinge_skew = np.stack(
         [np.zeros(len(hinge)), -hinge[:, 2], hinge[:, 1], hinge[:, 2], np.zeros(len(hinge)), -hinge[:, 0],
          -hinge[:, 1], hinge[:, 0], np.zeros(len(hinge))], axis=-1,
     ).reshape(-1, 3, 3)  # fmt: skip
-    hinge_skew2 = hinge_skew @ hinge_skew
-    lam2 = damping * damping
-    for _ in range(iterations):
-        shin = (l_middle @ o_e[..., None])[..., 0]  # ankle from knee, in the hip's frame
-        knee = hip + (g_upper @ o_u[..., None])[..., 0]
-        leg = (g_upper @ shin[..., None])[..., 0]
-        end = knee + leg
-        r = targets - end
-        # A chain at its target with its knee bent enough stays as it is (this step and, unchanged, every later one).
-        flex = np.arctan2(np.sum(hinge * np.cross(o_u, shin), axis=-1), np.sum(o_u * shin, axis=-1))
-        done = (np.sqrt(np.sum(r * r, axis=-1)) <= CONVERGED) & (flex >= chains.min_flex)
-        v = end - hip
-        c = np.cross((g_upper @ hinge[..., None])[..., 0], leg)  # knee column of J
-        # (J Jᵀ)⁻¹ = ((‖v‖² + λ²) I − v vᵀ + c cᵀ)⁻¹ by Sherman–Morrison twice.
-        alpha = np.sum(v * v, axis=-1, keepdims=True) + lam2
-
-        def b_inv(x, v=v, alpha=alpha):
-            return (x + v * (np.sum(v * x, axis=-1, keepdims=True) / lam2)) / alpha
-
-        br, bc = b_inv(r), b_inv(c)
-        y = br - bc * (np.sum(c * br, axis=-1, keepdims=True) / (1.0 + np.sum(c * bc, axis=-1, keepdims=True)))
-        hip_step = np.cross(v, y)  # Jᵀ y for the hip: −[v]×ᵀ y = v × y
-        knee_step = np.sum(c * y, axis=-1)
-        # A long step would leave the region where J describes the chain: shorten, keep the direction.
-        size = np.sqrt(np.sum(hip_step * hip_step, axis=-1) + knee_step * knee_step)
-        shrink = np.minimum(1.0, MAX_STEP / np.maximum(size, 1e-12))
-        hip_step = np.where(done[..., None], 0.0, hip_step * shrink[..., None])
-        knee_step = knee_step * shrink
-        g_upper = np.where(done[..., None, None], g_upper, quat.rotvec_matrix(hip_step) @ g_upper)
-        # Knee about its hinge, flexion kept at or above min_flex.
-        new_flex = np.maximum(flex + knee_step, chains.min_flex)
-        turn = np.where(done, 0.0, new_flex - flex)[..., None, None]
-        l_middle = (np.eye(3) + np.sin(turn) * hinge_skew + (1.0 - np.cos(turn)) * hinge_skew2) @ l_middle
+    knee = np.eye(3) + sin_t[..., None, None] * hinge_skew + (1.0 - cos_t)[..., None, None] * (hinge_skew @ hinge_skew)
+    l_middle = knee @ l_middle
+    # The hip: the least rotation that turns the leg (hip to ankle) onto the target's direction.
+    leg = (g_upper @ (o_u + (l_middle @ o_e[..., None])[..., 0])[..., None])[..., 0]
+    leg = leg / np.sqrt(np.sum(leg * leg, axis=-1))[..., None]
+    aim = to / np.maximum(np.sqrt(np.sum(to * to, axis=-1)), 1e-300)[..., None]  # (a target on the hip: no turn)
+    axis = np.cross(leg, aim)
+    cos_s = np.sum(leg * aim, axis=-1)
+    still = done | (1.0 + cos_s < 1e-12)  # (a leg turned straight away from its target: left, its miss reported)
+    zero = np.zeros(axis.shape[:-1])
+    skew = np.stack(
+        [zero, -axis[..., 2], axis[..., 1], axis[..., 2], zero, -axis[..., 0], -axis[..., 1], axis[..., 0], zero],
+        axis=-1,
+    ).reshape(axis.shape + (3,))
+    swing = np.eye(3) + skew + (skew @ skew) / np.where(still, 1.0, 1.0 + cos_s)[..., None, None]
+    g_upper = np.where(still[..., None, None], g_upper, swing @ g_upper)
 
     end = hip + (g_upper @ (o_u + (l_middle @ o_e[..., None])[..., 0])[..., None])[..., 0]
     residual = np.linalg.norm(targets - end, axis=-1)
@@ -278,15 +293,13 @@ def solve(
     translations: np.ndarray,
     targets: np.ndarray,
     tilts: np.ndarray | None = None,
-    iterations: int = ITERATIONS,
-    damping: float = DAMPING,
     min_drop: np.ndarray | float = 0.0,
 ) -> IKResult:
     """:func:`solve_reference`, compiled: the same algorithm and results, one pose at a time in a loop.
 
     One creature's two feet take tens of microseconds instead of a couple of milliseconds of NumPy calls.
     """
-    rotations, translations, targets = _checked(rotations, translations, targets, damping)
+    rotations, translations, targets = _checked(rotations, translations, targets)
     lead = rotations.shape[:-2]
     j, n_legs = rotations.shape[-2], len(chains.end)
     rot = np.ascontiguousarray(rotations.reshape(-1, j, 4))
@@ -301,7 +314,7 @@ def solve(
     _kernel().solve_batch(
         rot, trans, tgt, tl, np.array(chains.above, dtype=np.int64), chains.upper, chains.middle, chains.end,
         chains.hinge, chains.upper_offset, chains.end_offset, chains.tip_offset, chains.reach, chains.min_flex,
-        int(iterations), damping * damping, MAX_STEP, CONVERGED, MAX_DROP * float(chains.reach.min()), drop, residual,
+        CONVERGED, MAX_DROP * float(chains.reach.min()), drop, residual,
     )  # fmt: skip
     residual = residual.reshape(lead + (n_legs,))
     return IKResult(
