@@ -11,7 +11,8 @@ iterations), two steps per leg:
    + c sin θ)``, one ``cos(θ − φ)``; of its two roots the one that bends the knee forward (flexion at least
    ``min_flex``) and turns it least;
 2. the hip turns by the least rotation that takes the hip-to-ankle direction onto the target's (no turn about
-   the leg's own axis: the knee stays in the plane the verb has it in, as the least-squares steps leave it).
+   the leg's own axis, which the target does not ask for; the least-squares steps left some, wherever their path
+   led).
 
 A target past the leg's reach leaves the knee at ``min_flex`` and the leg aimed at it (its miss reported); the
 knee is never hyper-extended. The root is lowered when a target is beyond the leg's reach (by at most half a
