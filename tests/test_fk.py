@@ -124,3 +124,26 @@ def test_the_compiled_kernel_is_the_numpy_reference(path):
 def test_a_tree_out_of_order_is_refused():
     with pytest.raises(ValueError, match="every parent before its children"):
         forward_kinematics(np.array([-1, 2, 0]), np.tile(quat.identity(), (3, 1)), np.zeros((3, 3)))
+
+
+def test_forward_kinematics_to_the_feet_alone_places_them_as_the_whole_does():
+    """``forward_to`` over the toes' ancestors (``fk.path_to``: what the planter and the feet's slip read) gives those
+    joints the very numbers full forward kinematics does, on a real Bandai take, and writes no other joint."""
+    from adverbs.kinematics._fk_kernel import forward, forward_to
+    from adverbs.kinematics.fk import path_to
+
+    clip = read_bvh(BANDAI / "dataset-1_walk_sad_001.bvh")
+    parents = np.asarray(clip.skeleton.parents, dtype=np.int64)
+    toes = [f.toe for f in clip.skeleton.feet()]
+    path = path_to(parents, toes)
+    assert set(toes) <= set(path.tolist()) and 0 not in path and len(path) < clip.skeleton.num_joints - 1
+    assert all(parents[j] == 0 or parents[j] in path for j in path)
+    rot, trans = np.ascontiguousarray(clip.rotations), np.ascontiguousarray(clip.translations)
+    pos, grot = np.empty(trans.shape), np.empty(rot.shape)
+    forward(parents, rot, trans, pos, grot)
+    some_pos, some_rot = np.full(trans.shape, np.nan), np.full(rot.shape, np.nan)
+    forward_to(parents, path, rot, trans, some_pos, some_rot)
+    placed = np.r_[0, path]
+    assert np.array_equal(some_pos[:, placed], pos[:, placed]) and np.array_equal(some_rot[:, placed], grot[:, placed])
+    rest = np.setdiff1d(np.arange(clip.skeleton.num_joints), placed)
+    assert np.isnan(some_pos[:, rest]).all() and np.isnan(some_rot[:, rest]).all()

@@ -587,7 +587,7 @@ def test_the_compiled_blend_bookkeeping_is_the_numpy_one(bandai):
     """keep_feet (the body carried by the held feet's slip) and decay_offsets (a decaying pose offset) against the NumPy
     formulas they replace, on real Bandai poses: feet weights of both kinds and none, offsets of all ages."""
     from adverbs.graph._blend_kernel import decay_offsets, keep_feet
-    from adverbs.kinematics.fk import forward_kinematics
+    from adverbs.kinematics.fk import forward_kinematics, path_to
 
     graph = bandai
     body = graph.verbs[0].encoding.body_root
@@ -609,7 +609,7 @@ def test_the_compiled_blend_bookkeeping_is_the_numpy_one(bandai):
     shown_vel = rng.normal(0, 1.0, (c, 3))
     fade = rng.uniform(0.2, 1.0, n)  # under a decaying offset: the part of the slip left to carry the body
     fade[0] = 1.0
-    keep_feet(graph.skeleton.parents, tips, rows, w, rot, got_trans, shown_rot, shown_trans, shown_vel, body,
+    keep_feet(graph.skeleton.parents, tips, path_to(graph.skeleton.parents, tips), rows, w, rot, got_trans, shown_rot, shown_trans, shown_vel, body,
               graph.inverse_above_body, got_root, root, *free, fade, DT, np.ones(n, dtype=bool))  # fmt: skip
     now = forward_kinematics(graph.skeleton.parents, rot[rows], trans[rows])[0][:, tips]
     was = forward_kinematics(graph.skeleton.parents, shown_rot[rows], shown_trans[rows])[0][:, tips]
@@ -631,7 +631,7 @@ def test_the_compiled_blend_bookkeeping_is_the_numpy_one(bandai):
     speed = rng.uniform(0.5, 3.0, n)
     held_root, held_trans = root.copy(), np.array(trans)
     held_back = np.ones(n, dtype=bool)
-    keep_feet(graph.skeleton.parents, tips, rows, w, rot, held_trans, shown_rot, shown_trans, shown_vel, body,
+    keep_feet(graph.skeleton.parents, tips, path_to(graph.skeleton.parents, tips), rows, w, rot, held_trans, shown_rot, shown_trans, shown_vel, body,
               graph.inverse_above_body, held_root, prev, speed, speed, np.full(n, np.inf), np.ones(n), DT, held_back)  # fmt: skip
     assert not held_back.any()  # no limit: nothing held back
     step = held_root[rows, :2] - prev[rows, :2]
@@ -647,12 +647,12 @@ def test_the_compiled_blend_bookkeeping_is_the_numpy_one(bandai):
     change = np.array([0.5, 4.0, 1e3, 4.0, 40.0, 0.0])
     limited_root, limited_trans = root.copy(), np.array(trans)
     held_back = np.zeros(n, dtype=bool)
-    keep_feet(graph.skeleton.parents, tips, rows, w, rot, limited_trans, shown_rot, shown_trans, shown_vel, body,
+    keep_feet(graph.skeleton.parents, tips, path_to(graph.skeleton.parents, tips), rows, w, rot, limited_trans, shown_rot, shown_trans, shown_vel, body,
               graph.inverse_above_body, limited_root, root, np.zeros(n), np.full(n, np.inf), change, np.ones(n), DT,
               held_back)  # fmt: skip
     free_root = root.copy()
     free_back = np.ones(n, dtype=bool)
-    keep_feet(graph.skeleton.parents, tips, rows, w, rot, np.array(trans), shown_rot, shown_trans, shown_vel, body,
+    keep_feet(graph.skeleton.parents, tips, path_to(graph.skeleton.parents, tips), rows, w, rot, np.array(trans), shown_rot, shown_trans, shown_vel, body,
               graph.inverse_above_body, free_root, root, *free, np.ones(n), DT, free_back)  # fmt: skip
     assert not free_back.any()  # no limit: nothing held back
     mid = root[rows, 2] - 0.5 * shown_vel[rows, 2] * DT

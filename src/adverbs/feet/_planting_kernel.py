@@ -27,7 +27,7 @@ import numpy as np
 from numba import njit
 
 from .._scratch_kernel import carve
-from ..kinematics._fk_kernel import forward
+from ..kinematics._fk_kernel import forward_to
 from ..kinematics._ik_kernel import _copy33, _mat_to_quat, _mm, _mv, _quat_to_mat, _rotation, solve_batch
 from ..motion import _pose_kernel
 from ._planting_scalars import hold_mode as _hold_mode
@@ -513,7 +513,8 @@ def step(parents, rotations, translations, generic, inside_in, turn_in, swing_in
     (``planting._ride_floor``), the feet's tilts (``FootPlanter._tilts``), then the IK
     (``_ik_kernel.solve_batch``).
 
-    ``chain = (above, upper, middle, end, hinge, upper_offset, end_offset, reach)``: ``ik.LegChains``;
+    ``chain = (above, upper, middle, end, hinge, upper_offset, end_offset, path, reach)``: ``ik.LegChains`` and the
+    tips' ancestors (``fk.path_to``: the joints FK places; ``gpos``, ``grot`` hold those alone);
     ``ik_params = (min_flex, converged, max drop)``; ``out = (gpos, grot, targets, wanted,
     root_drop, residual)``: FK, the planter's targets and orientations, the IK's root drop and misses.
     Returns whether every target is finite (if not, the IK is not run).
@@ -527,12 +528,12 @@ def step(parents, rotations, translations, generic, inside_in, turn_in, swing_in
 def _step(parents, rotations, translations, generic, inside_in, turn_in, swing_in, examples_in, use_phases, dt, start,
           times, cyclic, verb_floor, tips, root, legs, k_, floor, state, chain, ik_params, out, buf):  # fmt: skip
     """:func:`step` in its working array ``buf`` (not counted: see ``runtime._frame_kernel``)."""
-    above, upper, middle, end, hinge, upper_offset, end_offset, reach_ = chain
+    above, upper, middle, end, hinge, upper_offset, end_offset, path, reach_ = chain
     min_flex, converged, max_drop = ik_params
     gpos, grot, targets, wanted, root_drop, residual = out
     tip, drop = legs[3], state[15]
     n_c, n_l = rotations.shape[0], len(tips)
-    forward(parents, rotations, translations, gpos, grot)
+    forward_to(parents, path, rotations, translations, gpos, grot)  # the toes' ancestors: all it reads
     free_pos, at = carve(buf, 0, (n_c, n_l, 3))
     free_rot, at = carve(buf, at, (n_c, n_l, 3, 3))
     hips, at = carve(buf, at, (n_c, n_l, 3))

@@ -51,7 +51,7 @@ import numpy as np
 from ..errors import AdverbsError
 from ..interp import timewarp
 from ..kinematics import ik, quat
-from ..kinematics.fk import forward_kinematics
+from ..kinematics.fk import forward_kinematics, path_to
 from ..kinematics.floor import FlatFloor, Floor, HeightMapFloor, SlopeFloor, tilt
 from ._planting_scalars import FLAT_TO_THE_END, SWING_LANDING
 from ..verb.tables import Verb
@@ -501,7 +501,8 @@ class _Compiled:
         self.max_drop = ik.MAX_DROP * float(reach.min())
         joints = (np.asarray(a, dtype=np.int64) for a in (chains.above, chains.upper, chains.middle, chains.end))
         axes = (np.ascontiguousarray(a, dtype=float) for a in (chains.hinge, chains.upper_offset, chains.end_offset))
-        self.chain = (*joints, *axes, reach)
+        path = path_to(verb.skeleton.parents, planter.tips)  # FK runs through the feet's ancestors alone
+        self.chain = (*joints, *axes, path, reach)
         self.ik_params = (float(chains.min_flex), ik.CONVERGED, self.max_drop)
         self.parents = np.asarray(verb.skeleton.parents, dtype=np.int64)
         self.tips = planter.tips.astype(np.int64)

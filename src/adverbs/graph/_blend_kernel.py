@@ -14,13 +14,13 @@ import math
 import numpy as np
 from numba import njit
 
-from ..kinematics._fk_kernel import forward
+from ..kinematics._fk_kernel import forward_to
 from ..motion._pose_kernel import _exp, _mul, _rotate_about_y
 from ..feet._planting_scalars import spring
 
 
 @njit(cache=True)
-def keep_feet(parents, tips, rows, weights, rot, trans, shown_rot, shown_trans, shown_vel, body, above_inv, root, prev,
+def keep_feet(parents, tips, path, rows, weights, rot, trans, shown_rot, shown_trans, shown_vel, body, above_inv, root, prev,
               lo, hi, change, fade, dt, held_back):  # pragma: no cover  # fmt: skip
     """For each creature ``rows[i]`` with foot weights ``weights[i] (L,)`` (where they sum to more than zero): the weighted mean
     horizontal slip ``was − now`` of its feet ``tips (L,)`` between the pose shown before (``shown_rot``,
@@ -35,14 +35,14 @@ def keep_feet(parents, tips, rows, weights, rot, trans, shown_rot, shown_trans, 
     for i in range(rows.shape[0]):
         c = rows[i]
         held_back[i] = keep_feet_row(
-            parents, tips, weights[i], rot[c : c + 1], trans[c : c + 1], shown_rot[c : c + 1], shown_trans[c : c + 1],
+            parents, tips, path, weights[i], rot[c : c + 1], trans[c : c + 1], shown_rot[c : c + 1], shown_trans[c : c + 1],
             body, above_inv, root[c], now_pos, now_rot, was_pos, was_rot, prev[c, 0], prev[c, 1], prev[c, 2],
             shown_vel[c, 0], shown_vel[c, 1], shown_vel[c, 2], lo[i], hi[i], change[i], fade[i], dt,
         )  # fmt: skip
 
 
 @njit(cache=True, inline="always")
-def keep_feet_row(parents, tips, weights, rot, trans, shown_rot, shown_trans, body, above_inv, root, now_pos, now_rot,
+def keep_feet_row(parents, tips, path, weights, rot, trans, shown_rot, shown_trans, body, above_inv, root, now_pos, now_rot,
                   was_pos, was_rot, x0, z0, h0, svx, svz, sturn, lo, hi, change, fade, dt):  # pragma: no cover  # fmt: skip
     """One creature of :func:`keep_feet`: its pose ``rot (1, J, 4)``, ``trans (1, J, 3)``, the one shown before, its
     ``root (3,)``; ``now_*``, ``was_*``: forward kinematics' scratch ``(1, J, 3)``, ``(1, J, 4)``.
@@ -64,8 +64,8 @@ def keep_feet_row(parents, tips, weights, rot, trans, shown_rot, shown_trans, bo
     sx = 0.0
     sz = 0.0
     if total > 0.0:  # feet held in both frames: the body carried by their slip
-        forward(parents, rot, trans, now_pos, now_rot)
-        forward(parents, shown_rot, shown_trans, was_pos, was_rot)
+        forward_to(parents, path, rot, trans, now_pos, now_rot)  # the feet's ancestors alone (fk.path_to)
+        forward_to(parents, path, shown_rot, shown_trans, was_pos, was_rot)
         for k in range(tips.shape[0]):
             w = weights[k]
             sx += w * (was_pos[0, tips[k], 0] - now_pos[0, tips[k], 0])

@@ -105,3 +105,15 @@ def bone_lengths(parents: np.ndarray, gpos: np.ndarray) -> np.ndarray:
     """Distance of each non-root joint from its parent, ``(..., J − 1)``."""
     child = np.flatnonzero(np.asarray(parents) >= 0)
     return np.linalg.norm(gpos[..., child, :] - gpos[..., np.asarray(parents)[child], :], axis=-1)
+
+
+def path_to(parents: np.ndarray, joints) -> np.ndarray:
+    """The joints ``joints`` and all their ancestors but the root (joint 0), ascending ``(K,)``: what forward kinematics
+    runs through to place them (``_fk_kernel.forward_to``; a parent comes before its children in a skeleton's order)."""
+    need = set()
+    for j in joints:
+        j = int(j)
+        while j > 0:
+            need.add(j)
+            j = int(parents[j])
+    return np.array(sorted(need), dtype=np.int64)

@@ -694,7 +694,7 @@ def _creature(c, dt, flags, turns, hbox, buf, hb):  # pragma: no cover
                 fade = spring(1.0, 0.0, offset_since[c], offset_halflife[c], k_[_LN2])
             change = _carry_limit(c, verbs, caches, state)
             lagging[c] = keep_feet_row(
-                parents, feet, wts, rot[c : c + 1], trans[c : c + 1], shown_rot[c : c + 1], shown_trans[c : c + 1], body,
+                parents, feet, skeleton[6], wts, rot[c : c + 1], trans[c : c + 1], shown_rot[c : c + 1], shown_trans[c : c + 1], body,
                 above_inv, root[c], fk_now_pos, fk_now_rot, fk_was_pos, fk_was_rot, x0, z0, h0, shown_vel[c, 0],
                 shown_vel[c, 1], shown_vel[c, 2], lo, hi, change, fade, dt,
             )  # fmt: skip
