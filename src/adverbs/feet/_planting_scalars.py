@@ -36,7 +36,7 @@ def spring(x0, v0, t, halflife, ln2):  # pragma: no cover - compiled
     return (x0 + (v0 + y * x0) * t) * math.exp(-y * t)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def hold_mode(cyclic, g, open_, times):  # pragma: no cover - compiled
     """``planting.hold_modes`` and ``planting.swing_lifts`` of one hold ``times (3,)`` at generic time ``g``: open or
     not, the turn back, and how much of the least swing lift applies."""
