@@ -787,7 +787,8 @@ def test_a_verbs_contact_level_is_the_lowest_its_foot_comes_in_its_hold(bandai, 
 
 def test_know_levels_fills_what_the_planter_has_not_taken(cmu):
     """Before a frame, each creature's verbs (playing, entering, next) get the levels the planter has not taken yet,
-    worked out at the creature's own adverbs; levels it took stay; a verb already looked at is not worked again."""
+    worked out at the creature's own adverbs; levels it took stay; a verb already looked at is not worked again; a
+    look after the first takes in only the creatures whose queues moved, and finds what a first look finds."""
     from adverbs.graph.planted import know_levels, planter
     from adverbs.graph.queue import command
     from adverbs.graph.state import new_state
@@ -804,8 +805,12 @@ def test_know_levels_fills_what_the_planter_has_not_taken(cmu):
     assert feet.levels[0, cols[0], walk] == 0.123 and feet.levels[0, cols[1], walk] == own[0, 1]
     assert np.isnan(feet.levels[:, :, run]).all() and not feet.known[:, run].any()
     command(state, 1, "run", stay=True)  # next: the run, for creature 1 alone
-    know_levels(feet, state)
+    know_levels(feet, state)  # looks at creature 1 alone (its queue was noted since the last look: head_stamp)
     assert np.isnan(feet.levels[0, :, run]).all() and np.isfinite(feet.levels[1, :, run]).all()
+    whole = planter(cmu, 2)
+    know_levels(whole, state)  # a planter's first look takes in every creature: the same levels
+    np.testing.assert_array_equal(whole.levels[:, :, run], feet.levels[:, :, run])
+    np.testing.assert_array_equal(whole.known, feet.known)
     feet.levels[1, :, run] = 0.5
     know_levels(feet, state)
     assert (feet.levels[1, :, run] == 0.5).all()

@@ -102,6 +102,7 @@ class GraphState:
     head: np.ndarray | None = None  # (C,) each queue's first transition (−1: empty), kept for the compiled frame
     cache_version: int = 0  # counts the times a verb's cached rows changed (clocks._sampling), for the compiled frame
     head_version: int = 0  # counts the times a queue's first transition was noted (sync_head), for the compiled frame
+    head_stamp: np.ndarray | None = None  # (C,) head_version when each creature's was last noted (planted.know_levels)
 
     @property
     def creatures(self) -> int:
@@ -154,6 +155,7 @@ def new_state(
     state.arms_take, state.arms_length = np.zeros(c, dtype=bool), np.full(c, ARMS_BLEND)
     state.stay = np.array(np.broadcast_to(np.asarray(stay, dtype=bool), (c,)))
     state.head = np.full(c, -1, dtype=np.int64)
+    state.head_stamp = np.zeros(c, dtype=np.int64)
     for k in range(c):
         _settle_queue(state, k)
     return state
@@ -190,3 +192,5 @@ def sync_head(state: GraphState, c: int) -> None:
     if state.head is not None:
         state.head[c] = state.queue[c][0] if state.queue[c] else -1
     state.head_version += 1
+    if state.head_stamp is not None:
+        state.head_stamp[c] = state.head_version

@@ -162,6 +162,8 @@ class FramePass:
         self.use_feet(feet)  # refused before anything is made if the floor is one the kernel cannot take
         if state.head is None:
             state.head = np.full(state.creatures, -1, dtype=np.int64)
+        if state.head_stamp is None:
+            state.head_stamp = np.zeros(state.creatures, dtype=np.int64)
         for c in range(state.creatures):
             sync_head(state, c)
         self._pool = Threads(threads)
