@@ -61,7 +61,6 @@ import numpy as np
 
 from ..errors import AdverbsError
 from ..kinematics import quat
-from ..kinematics.fk import path_to
 from ..verb._sampling_kernel import GENERIC, VELOCITIES
 from ..motion._pose_kernel import blend_poses, root_velocities
 from ..motion.encoding import advance_root
@@ -534,7 +533,7 @@ def _keep_feet(
     change = carry_limits(state, rows)
     held_back = np.zeros(len(rows), dtype=bool)
     keep_feet(
-        graph.skeleton.parents, graph.feet_array, path_to(graph.skeleton.parents, graph.feet_array), rows, w, rot, trans, state.shown[0], state.shown[1],
+        graph.skeleton.parents, graph.feet_array, graph.feet_path, rows, w, rot, trans, state.shown[0], state.shown[1],
         np.ascontiguousarray(state.shown[2]), graph.verbs[0].encoding.body_root, graph.inverse_above_body, root,
         state.root, np.where(alone, 0.0, speed[rows]), np.where(cosine, speed[rows], np.inf), change, fade, dt, held_back,
     )  # fmt: skip

@@ -25,6 +25,7 @@ import numpy as np
 
 from ..errors import AdverbsError
 from ..feet.planter import effector_joints
+from ..kinematics.fk import path_to
 from ..verb.tables import Verb
 
 BLENDS = ("cosine", "inertial")
@@ -205,6 +206,12 @@ class Graph:
     def feet_array(self) -> np.ndarray:
         """:attr:`feet` as an array ``(L,)``."""
         return np.array(self.feet, dtype=np.int64)
+
+    @cached_property
+    def feet_path(self) -> np.ndarray:
+        """The feet and their ancestors but the root, ascending ``(K,)``: what forward kinematics runs through where
+        only the feet are read (``fk.path_to``; the feet's slip in a blend)."""
+        return path_to(self.skeleton.parents, self.feet_array)
 
     @cached_property
     def between_verbs(self) -> np.ndarray:

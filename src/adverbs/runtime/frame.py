@@ -39,7 +39,6 @@ from ..graph.planted import GraphFeet, know_levels
 from ..graph.state import GraphState, sync_head
 from ..graph.structure import Graph
 from ..feet import planter as planting
-from ..kinematics.fk import path_to
 from ..verb.sampling import SamplingState
 from . import _frame_kernel as kernel
 from ._borrow_kernel import Held, hold
@@ -129,7 +128,7 @@ def tables(graph: Graph) -> Tables:
         np.asarray(graph.skeleton.parents, dtype=np.int64), np.ascontiguousarray(graph.feet_array, dtype=np.int64),
         np.ascontiguousarray(graph.inverse_above_body, dtype=float), int(vs[0].encoding.body_root),
         np.ascontiguousarray(graph.arms, dtype=np.int64), np.ascontiguousarray(graph.paced_joints, dtype=np.int64),
-        path_to(graph.skeleton.parents, graph.feet_array),  # what keep_feet_row's FK runs through
+        graph.feet_path,  # what keep_feet_row's FK runs through
     )  # fmt: skip
     out = Tables(verbs, transitions, max(v.num_dofs for v in vs), skeleton)
     _TABLES[graph] = out
