@@ -39,7 +39,8 @@ def graphs():
 
 def _drive(graph, plan, seconds, compiled=False, points=None):
     """One creature from the walk, told what ``plan`` says: ``[(when, verb)]``, ``when`` a time in seconds or
-    ``("mid", source, target)``: as soon as a blend from ``source`` into ``target`` is half-way. Returns the
+    ``("mid", source, target)``: as soon as a blend from ``source`` into ``target`` is half-way (``"begun"``: under
+    way). Returns the
     rotations shown ``(F, J, 4)``, each frame's transition and the verb it is entered from, whether each frame took the
     arms' offset (1) or ended it (−1), and the final state."""
     state = new_state(graph, 1, seed=5, start="walk", points=points, stay=True)
@@ -51,8 +52,10 @@ def _drive(graph, plan, seconds, compiled=False, points=None):
         t = f * DT
         for when, verb in list(todo):
             if isinstance(when, tuple):
-                _, a, b = when
-                due = state.active[0] >= 0 and (names[state.verb[0]], names[state.into[0]]) == (a, b) and state.beta[0] >= 0.5
+                how, a, b = when
+                due = state.active[0] >= 0 and (names[state.verb[0]], names[state.into[0]]) == (a, b) and (
+                    how == "begun" or state.beta[0] >= 0.5
+                )
             else:
                 due = t >= when
             if due:
@@ -158,6 +161,25 @@ def test_the_compiled_pass_carries_the_arms_as_the_reference_does(graphs):
     fast, *_, fast_state = _drive(graph, PLAN, 11.0, compiled=True)
     np.testing.assert_allclose(fast, ref, rtol=0, atol=1e-9)
     np.testing.assert_allclose(fast_state.arms_rot, ref_state.arms_rot, rtol=0, atol=1e-9)
+
+
+def test_a_stop_turned_back_and_over_within_a_frame_takes_the_arms_again_against_the_walk(graphs):
+    """A walk asked for the frame a stop began turns it back, and the turned-back blend is over within the next frame:
+    the walk plays alone. The arms' offset the stop took against the stand's arms is taken again against the walk's
+    (shown on the walk's, it threw an arm at 3.5-11x the walk's own; ``test_edges``), after a run → walk whose own
+    offset is still fading; the compiled pass does the same, to 1e-9."""
+    graph = graphs["bandai"]
+    plan = [(0.5, "run"), (2.0, "walk"), (3.0, "idle"), (("begun", "walk", "idle"), "walk")]
+    rot, active, source, took, state = _drive(graph, plan, 6.0)
+    stop = int(np.flatnonzero(graph.carries_arms == 2)[0])
+    first = int(np.flatnonzero(active == stop)[0])
+    assert took[first] == 1 and active[first + 1] < 0, (took[first - 1 : first + 3], active[first - 1 : first + 3])
+    assert source[first + 1] == graph.verb_index("walk")
+    arms = _parts(graph)["arms"]
+    assert _angular_speed(rot[first - 2 : first + 15])[:, arms].max() <= 1.5 * _own_arms(graph)
+    fast, *_, fast_state = _drive(graph, plan, 6.0, compiled=True)
+    np.testing.assert_allclose(fast, rot, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(fast_state.arms_rot, state.arms_rot, rtol=0, atol=1e-9)
 
 
 def test_a_stop_carries_the_arms_over_its_blend_and_no_further(graphs):

@@ -471,6 +471,30 @@ def test_a_stop_asked_for_a_gesture_lands_its_feet_first(bandai, gesture):
         assert bandai.verb_index(gesture) in perf.verb[int((3.0 + delay) * FPS) :], f"no {gesture} after the stop"
 
 
+@pytest.mark.parametrize("seed", [43, 44, 49])
+def test_a_stop_turned_back_into_the_walk_at_once_keeps_the_arms_on(bandai, seed):
+    """A walk cue the frame after a stop began turns the stop back, and the turned-back blend is over within that
+    frame: the walk plays alone. The arms' offset the stop had taken against the stand's arms was shown on the walk's
+    instead: a hand 27 cm in one frame (benchmarks/edges.py, seed 224), the arms at 3.5-11x the walk's own at seeds
+    40-51. It is taken again against the walk's: at most 1.02x there. Seed 44 had an offset of an earlier run → walk
+    still fading, which ending the stop's offset (not taking it again) dropped in one frame (3.4x)."""
+    rng = np.random.default_rng(seed)
+    adverbs = {"valence": float(rng.uniform(-0.5, 0.5)), "energy": float(rng.uniform(-0.5, 0.5))}
+    cues = [Cue(0.5, "walk"), Cue(float(rng.uniform(2.0, 4.0)), "idle")]
+    walk, idle = bandai.verb_index("walk"), bandai.verb_index("idle")
+    plain = perform(bandai, cues, seconds=8.0, seed=seed, adverbs=adverbs, start="idle")
+    begins = np.flatnonzero((plain.active >= 0) & (np.r_[-1, plain.active[:-1]] != plain.active))
+    start = next(f for f in begins if (bandai.transitions[plain.active[f]].source, bandai.transitions[plain.active[f]].target) == (walk, idle))
+    perf = perform(bandai, [*cues, Cue((start + 1) / FPS, "walk")], seconds=8.0, seed=seed, adverbs=adverbs, start="idle")
+    assert perf.active[start] == plain.active[start] and perf.active[start + 1] < 0 and perf.verb[start + 1] == walk, (
+        "the walk cue should turn the stop back, over within the frame after it began"
+    )
+    arms = _parts(bandai)["arms"]
+    own = _angular_speed(perform(bandai, [], seconds=6.0, seed=seed, start="walk", adverbs=adverbs, stay=True).planted.rotations)
+    fastest = _angular_speed(perf.planted.rotations)[start - 1 : start + 15][:, arms].max()
+    assert fastest <= 1.5 * own[30:, arms].max(), f"an arm at {np.degrees(fastest):.0f} deg/s (the walk's own {np.degrees(own[30:, arms].max()):.0f})"
+
+
 @pytest.mark.parametrize("seed", [
     213,
     224,  # 1.54x until session 47 (a cosine blend into a one-shot now limits the carried body's acceleration too)

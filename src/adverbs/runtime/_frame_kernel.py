@@ -629,9 +629,10 @@ def _creature(c, dt, flags, turns, hbox, buf, hb):  # pragma: no cover
         arms_since[c] = np.inf
     if arms_take[c]:
         arms_take[c] = False
-        if has_shown and arms.shape[0] > 0 and active[c] >= 0:
-            _arms_take(c, dt, has_before, x0, z0, h0, hbox, arms, shown_rot, before_rot, e_b, rot_b,
-                       rot0, trans0, r1, r2, blend)  # fmt: skip
+        # (a blend turned back and over within the frame: taken again against A, alone; with no offset alive, none)
+        if has_shown and arms.shape[0] > 0 and (active[c] >= 0 or arms_since[c] < state[26][c]):
+            _arms_take(c, dt, has_before, x0, z0, h0, hbox, arms, shown_rot, before_rot, e_b,
+                       rot_b if active[c] >= 0 else rot[c], rot0, trans0, r1, r2, blend)  # fmt: skip
     if arms_since[c] < state[26][c]:
         if active[c] >= 0 and active[c] == state[24][c]:  # in the blend that took it: the arms play B
             for i in range(arms.shape[0]):
@@ -707,15 +708,20 @@ def _creature(c, dt, flags, turns, hbox, buf, hb):  # pragma: no cover
 def _arms_take(c, dt, has_before, x0, z0, h0, hbox, arms, shown_rot, before_rot, e_b, rot_b, rot0,
                trans0, r1, r2, blend):  # pragma: no cover  # fmt: skip
     """``player._arms``'s taking of creature ``c``'s arms' offset (a frame now and then: not inlined), from the pose
-    shown and B a frame ago (decoded into ``rot0``) and now (``rot_b``)."""
+    shown and B a frame ago (decoded into ``rot0``) and now (``rot_b``); A's, playing alone, where no blend is under
+    way (one turned back and over within the frame)."""
     verbs, _, _, caches, state, _, _, _ = _held(hbox)
-    into, g_into, active = state[2], state[3], state[4]
+    verb, g, into, g_into, active = state[:5]
     arms_rot, arms_vel, arms_since, arms_of = state[21], state[22], state[23], state[24]
-    # B a frame ago, by its clock (player._back).
-    _, rate_b = _rates(c, verbs, caches, state)
-    gb = _generic_of(_clock_of(g_into[c], into[c], 1, c, verbs, caches) - dt * rate_b, into[c], 1, c, verbs, caches)
-    _dofs(e_b, into[c], 1, c, gb, verbs, caches, blend)
-    _decode_verb(into[c], e_b, x0, z0, h0, verbs, rot0, trans0)
+    # B (A, alone) a frame ago, by its clock (player._back).
+    if active[c] >= 0:
+        v, slot, gv = into[c], 1, g_into[c]
+        _, rate = _rates(c, verbs, caches, state)
+    else:
+        v, slot, gv, rate = verb[c], 0, g[c], 1.0
+    gb = _generic_of(_clock_of(gv, v, slot, c, verbs, caches) - dt * rate, v, slot, c, verbs, caches)
+    _dofs(e_b, v, slot, c, gb, verbs, caches, blend)
+    _decode_verb(v, e_b, x0, z0, h0, verbs, rot0, trans0)
     for i in range(arms.shape[0]):
         j = arms[i]
         _relative_into(shown_rot[c, j], rot0[j], arms_rot[c, i])
