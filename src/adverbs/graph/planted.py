@@ -16,7 +16,10 @@ from .player import Frame
 from .state import GraphState
 
 
-REPLANT = 0.06  # metres: a held foot this far (across the floor) from where the verb playing has it is re-placed
+REPLANT = 0.12  # metres: a held foot this far (across the floor) from where the verb playing has it is re-placed
+#   (a walk's own stance foot slides from where it landed: held where it landed, it is 2-7 cm from the walk's at
+#   most adverb points by toe-off, up to 15 cm in sharp turns; at 6 cm most walks re-placed a stance foot mid-stance,
+#   lifting it 3 cm and gliding it on while the verb had it down)
 REPLANTED = 0.01  # metres: ... until the released foot is this near the verb's again
 LEFT_BEHIND = 0.12  # metres: in a blend, a held foot this far from where the verbs have it is re-placed
 STANDING = 0.15  # metres: ... and where the creature stands or comes to stand (the verb entered is a one-shot) ...
