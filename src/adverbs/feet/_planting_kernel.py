@@ -321,7 +321,9 @@ def _advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, examples
             if use_phases:
                 below = _lowered(examples_in[c, i], level, clearance) - raised - k_[_SLACK]
                 swung += _ramp(below, k_[_LIFT_BLEND])
-            least = -np.inf if follows or held else k_[_SWING_LIFT] * swings[i]  # (not for a foot about to land)
+            # (Not for a foot about to land; one its verbs hold past heel-off while still in the air is lifting.)
+            lifting = held and m == FREE and tn > 0.0 and swings[i] > 0.0
+            least = -np.inf if follows or (held and not lifting) else k_[_SWING_LIFT] * swings[i]
             up = _smooth_max(swung, least, k_[_LIFT_BLEND])
             base[0], base[1], base[2] = fp[0], _height(floor, fp[0], fp[2]) + height + up, fp[2]
             _tilt(floor, base[0], base[2], s[0])

@@ -253,7 +253,10 @@ class FootPlanter:
         # and at least the swing's least lift over it (a verb that drags its foot through the swing has it lifted).
         base = free_pos.copy()
         swung = raised + _ramp(_lowered(examples, level) - raised - EXAMPLE_SLACK, LIFT_BLEND)
-        least = np.where(follows | inside, -np.inf, SWING_LIFT * swing)  # (not for a foot about to land)
+        # (Not for a foot about to land; but one its verbs hold past heel-off while it is still in the air is lifting:
+        # a stop turned back into the walk gave its landing foot the walk's hold, and it dropped 20 mm in a frame.)
+        lifting = inside & (self.mode == FREE) & (turn > 0.0) & (swing > 0.0)
+        least = np.where(follows | (inside & ~lifting), -np.inf, SWING_LIFT * swing)
         base[..., 1] = floor.height(free_pos[..., [0, 2]]) + height + _smooth_max(swung, least, LIFT_BLEND)
         free_wanted = self._tilt(base[..., [0, 2]]) @ free_rot
         self.rot_since += dt[..., 0]
