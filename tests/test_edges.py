@@ -120,6 +120,14 @@ def _contact(positions):
     return np.percentile(positions[:, :, 1], 1, axis=0)
 
 
+def _begins(graph, perf, source: str | None, target: str) -> int:
+    """The first frame of ``perf`` at which a transition from verb ``source`` (any: None) into ``target`` begins."""
+    begins = np.flatnonzero((perf.active >= 0) & (np.r_[-1, perf.active[:-1]] != perf.active))
+    t = graph.transitions
+    want = (None if source is None else graph.verb_index(source), graph.verb_index(target))
+    return next(f for f in begins if (want[0] in (None, t[perf.active[f]].source)) and t[perf.active[f]].target == want[1])
+
+
 @pytest.mark.parametrize(
     "seed, adverbs",
     [(5, {"valence": 0.2, "energy": 0.3, "turn": 10.0}), (8, {"valence": -0.6, "energy": -0.4, "turn": -25.0}), (13, {})],
@@ -369,10 +377,8 @@ def test_a_start_cut_short_by_a_command_speeds_up_as_the_walk_does(bandai, seed,
     (of 12 tried, 4 failed, these 3 by the most); nothing was tuned on them."""
     from test_transitions import _root_acceleration
 
-    walk = bandai.verb_index("walk")
     plain = perform(bandai, [Cue(0.5, "walk")], seconds=8.0, seed=seed, adverbs=adverbs, start="idle")
-    starts = np.flatnonzero((plain.active >= 0) & (np.r_[-1, plain.active[:-1]] != plain.active))
-    start = next(f for f in starts if bandai.transitions[plain.active[f]].target == walk)
+    start = _begins(bandai, plain, None, "walk")
     cut = (start + 2) / FPS  # the frame shown at time f / FPS is frame f - 1 (frames start at dt)
     perf = perform(bandai, [Cue(0.5, "walk"), Cue(cut, "reach")], seconds=8.0, seed=seed, adverbs=adverbs,
                    start="idle")  # fmt: skip
@@ -475,10 +481,9 @@ def test_a_stop_turned_back_into_the_walk_at_once_keeps_the_arms_on(bandai, seed
     rng = np.random.default_rng(seed)
     adverbs = {"valence": float(rng.uniform(-0.5, 0.5)), "energy": float(rng.uniform(-0.5, 0.5))}
     cues = [Cue(0.5, "walk"), Cue(float(rng.uniform(2.0, 4.0)), "idle")]
-    walk, idle = bandai.verb_index("walk"), bandai.verb_index("idle")
+    walk = bandai.verb_index("walk")
     plain = perform(bandai, cues, seconds=8.0, seed=seed, adverbs=adverbs, start="idle")
-    begins = np.flatnonzero((plain.active >= 0) & (np.r_[-1, plain.active[:-1]] != plain.active))
-    start = next(f for f in begins if (bandai.transitions[plain.active[f]].source, bandai.transitions[plain.active[f]].target) == (walk, idle))
+    start = _begins(bandai, plain, "walk", "idle")
     perf = perform(bandai, [*cues, Cue((start + 1) / FPS, "walk")], seconds=8.0, seed=seed, adverbs=adverbs, start="idle")
     assert perf.active[start] == plain.active[start] and perf.active[start + 1] < 0 and perf.verb[start + 1] == walk, (
         "the walk cue should turn the stop back, over within the frame after it began"
@@ -874,10 +879,8 @@ def test_a_walk_into_a_run_cut_short_lands_the_swinging_foot_as_the_run_does(ban
     rng = np.random.default_rng(seed)
     adverbs = {"valence": float(rng.uniform(-0.5, 0.5)), "energy": float(rng.uniform(-0.4, 0.4))}
     cues = [Cue(0.5, "walk"), Cue(float(rng.uniform(2.5, 4.0)), "run")]
-    walk, run = bandai.verb_index("walk"), bandai.verb_index("run")
     plain = perform(bandai, cues, seconds=8.0, seed=seed, adverbs=adverbs, start="idle")
-    begins = np.flatnonzero((plain.active >= 0) & (np.r_[-1, plain.active[:-1]] != plain.active))
-    start = next(f for f in begins if (bandai.transitions[plain.active[f]].source, bandai.transitions[plain.active[f]].target) == (walk, run))
+    start = _begins(bandai, plain, "walk", "run")
     toes = _toes(bandai)
 
     def own(verb):
