@@ -270,7 +270,6 @@ def _step(state: GraphState, dt: float) -> Frame:
         # of their velocities since.
         before = _sample(state, *_back(state, rows, dt))
         state.offset_root[rows] = state.moving[rows] - before.velocity[rows]
-        state.offset_free[rows] = False if state.held_before is None else ~state.held_before[rows]
     vel = base.velocity.copy()
     state.offset_since += dt
     if before is not None:
@@ -314,7 +313,7 @@ def _step(state: GraphState, dt: float) -> Frame:
     blended = np.zeros(state.creatures, dtype=bool)
     blended[live] = True
     if len(live):  # the examples' lifts kept under the foot as much as the pose shown has become the verbs'
-        lifts[live] = _offset_lifts(lifts[live], state.offset_since[live], state.offset_halflife[live], state.offset_free[live])
+        lifts[live] = _offset_lifts(lifts[live], state.offset_since[live], state.offset_halflife[live])
     # One verb (alone, or looping into itself: its instances keep their feet alike) and no decaying offset.
     state.alone = ((state.active < 0) | ~state.graph.between_verbs[state.active]) & ~blended
     state.standing = _standing(state)
@@ -405,16 +404,13 @@ def _entering(state: GraphState) -> np.ndarray:
     return np.where(state.active >= 0, state.into, state.verb)
 
 
-def _offset_lifts(lifts: np.ndarray, since: np.ndarray, halflife: np.ndarray, free: np.ndarray) -> np.ndarray:
-    """The examples' lifts ``(n, L)`` of creatures under a decaying offset: of a foot held when the offset was taken,
-    as much as the offset has decayed (its spring's weight gone), so the foot is kept over them only as the pose shown
-    has become the verb's; of one that was free then (``free (n, L)``), all of it. Kept over the walk's whole lift at
-    once, the first foot of a start cut short by a command (the walk played at once under the offset of the pose
-    shown, still mostly the stand's) rose 4.6 cm in a frame, the knee at 750 deg/s. Scaled so, the swinging foot of
-    a walk → run cut short two frames in by a command lost the run's lift where the offset took it under the floor,
-    and came down early, 3-7 m/s along it (a toe 115 mm over the run's own low travel)."""
+def _offset_lifts(lifts: np.ndarray, since: np.ndarray, halflife: np.ndarray) -> np.ndarray:
+    """The examples' lifts ``(n, L)`` of creatures under a decaying offset: as much of each as the offset has decayed
+    (its spring's weight gone), so the foot is kept over them only as the pose shown has become the verb's. Kept
+    over the walk's whole lift at once, the first foot of a start cut short by a command (the walk played at once
+    under the offset of the pose shown, still mostly the stand's) rose 4.6 cm in a frame, the knee at 750 deg/s."""
     w = 1.0 - _spring(1.0, 0.0, since, halflife)[:, None]
-    return np.where(np.isfinite(lifts) & ~free, lifts * w, lifts)
+    return np.where(np.isfinite(lifts), lifts * w, lifts)
 
 
 def _standing(state: GraphState) -> np.ndarray:

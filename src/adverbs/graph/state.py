@@ -94,7 +94,6 @@ class GraphState:
     stay: np.ndarray | None = None
     held_before: np.ndarray | None = None
     lagging: np.ndarray | None = None  # (C,) the body's velocity held back by its carry limit last frame (player._keep_feet)
-    offset_free: np.ndarray | None = None  # (C, L) each foot was free (not held) when the decaying offset was taken
     moving: np.ndarray | None = None
     fresh: set | None = None
     regions_seen: dict | None = None
@@ -151,7 +150,6 @@ def new_state(
     )  # fmt: skip
     state.inertial = np.zeros(c, dtype=bool)
     state.lagging = np.zeros(c, dtype=bool)
-    state.offset_free = np.zeros((c, len(graph.feet)), dtype=bool)
     state.arms_rot, state.arms_vel = np.zeros((c, len(graph.arms), 3)), np.zeros((c, len(graph.arms), 3))
     state.arms_since, state.arms_of = np.full(c, np.inf), np.full(c, -1, dtype=np.int64)
     state.arms_take, state.arms_length = np.zeros(c, dtype=bool), np.full(c, ARMS_BLEND)

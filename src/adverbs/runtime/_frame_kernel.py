@@ -617,8 +617,6 @@ def _creature(c, dt, flags, turns, hbox, buf, hb):  # pragma: no cover
                                                  - (trans[c, j, a] - trans0[j, a])) / dt  # fmt: skip
         # The root's own travel is the root's: only heights and the pose carry an offset.
         offset_trans[c, body, 0] = offset_trans[c, body, 2] = 0.0
-        for i in range(feet.shape[0]):  # the feet free as it is taken (player._offset_lifts)
-            state[28][c, i] = has_held_before and not held_before[c, i]
         offset_trans_vel[c, body, 0] = offset_trans_vel[c, body, 2] = 0.0
     if live:
         decay_row(offset_since[c], offset_halflife[c], offset_rot[c], offset_rot_vel[c], offset_trans[c],
@@ -671,10 +669,10 @@ def _creature(c, dt, flags, turns, hbox, buf, hb):  # pragma: no cover
                     swing[c, i] = max(sa, sb[i])
                 elif not ha and not hb[i]:
                     swing[c, i] = min(sa, sb[i])
-    if live:  # the examples' lifts as much as the offset has decayed, of feet held as it was taken (player._offset_lifts)
+    if live:  # the examples' lifts as much as the offset has decayed (player._offset_lifts)
         w = 1.0 - spring(1.0, 0.0, offset_since[c], offset_halflife[c], k_[_LN2])
         for i in range(lifts.shape[1]):
-            if math.isfinite(lifts[c, i]) and not state[28][c, i]:
+            if math.isfinite(lifts[c, i]):
                 lifts[c, i] *= w
     kinds[c, 0] = (not is_moving or not transitions[3][active[c]]) and not live  # one verb (player._step)
     kinds[c, 1] = not verbs[5][into[c] if is_moving else verb[c]]  # standing, or coming to stand (player._standing)

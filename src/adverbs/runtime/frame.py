@@ -359,7 +359,7 @@ class FramePass:
             state.time, state.inertial, state.rebase, state.offset_rot, state.offset_rot_vel, state.offset_trans,
             state.offset_trans_vel, state.offset_root, state.offset_since, state.offset_halflife, state.moving,
             state.root, state.held_before, state.arms_rot, state.arms_vel, state.arms_since, state.arms_of,
-            state.arms_take, state.arms_length, state.lagging, state.offset_free,
+            state.arms_take, state.arms_length, state.lagging,
         )  # fmt: skip
         key = (state.head, *arrays)
         if self._box_key is not None and all(map(operator.is_, key, self._box_key)):
