@@ -254,24 +254,16 @@ def solve_reference(
     cos_t = np.where(least, np.cos(turn), cos_t)
     sin_t = np.where(least, np.sin(turn), sin_t)
     cos_t, sin_t = np.where(done, 1.0, cos_t), np.where(done, 0.0, sin_t)
-    hinge_skew = np.stack(
-        [np.zeros(len(hinge)), -hinge[:, 2], hinge[:, 1], hinge[:, 2], np.zeros(len(hinge)), -hinge[:, 0],
-         -hinge[:, 1], hinge[:, 0], np.zeros(len(hinge))], axis=-1,
-    ).reshape(-1, 3, 3)  # fmt: skip
+    hinge_skew = quat.cross_matrix(hinge)
     knee = np.eye(3) + sin_t[..., None, None] * hinge_skew + (1.0 - cos_t)[..., None, None] * (hinge_skew @ hinge_skew)
     l_middle = knee @ l_middle
     # The hip: the least rotation that turns the leg (hip to ankle) onto the target's direction.
     leg = (g_upper @ (o_u + (l_middle @ o_e[..., None])[..., 0])[..., None])[..., 0]
     leg = leg / np.sqrt(np.sum(leg * leg, axis=-1))[..., None]
     aim = to / np.maximum(np.sqrt(np.sum(to * to, axis=-1)), 1e-300)[..., None]  # (a target on the hip: no turn)
-    axis = np.cross(leg, aim)
     cos_s = np.sum(leg * aim, axis=-1)
     still = done | (1.0 + cos_s < 1e-12)  # (a leg turned straight away from its target: left, its miss reported)
-    zero = np.zeros(axis.shape[:-1])
-    skew = np.stack(
-        [zero, -axis[..., 2], axis[..., 1], axis[..., 2], zero, -axis[..., 0], -axis[..., 1], axis[..., 0], zero],
-        axis=-1,
-    ).reshape(axis.shape + (3,))
+    skew = quat.cross_matrix(np.cross(leg, aim))
     swing = np.eye(3) + skew + (skew @ skew) / np.where(still, 1.0, 1.0 + cos_s)[..., None, None]
     g_upper = np.where(still[..., None, None], g_upper, swing @ g_upper)
 

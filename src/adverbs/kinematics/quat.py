@@ -240,14 +240,18 @@ def from_matrix(m: np.ndarray) -> np.ndarray:
     return out
 
 
+def cross_matrix(v: np.ndarray) -> np.ndarray:
+    """The cross-product matrices ``[v]× (..., 3, 3)`` of vectors ``v (..., 3)``: ``[v]× w = v × w``."""
+    x, y, z = v[..., 0], v[..., 1], v[..., 2]
+    zero = np.zeros_like(x)
+    return np.stack([zero, -z, y, z, zero, -x, -y, x, zero], axis=-1).reshape(v.shape[:-1] + (3, 3))
+
+
 def rotvec_matrix(v: np.ndarray) -> np.ndarray:
     """Rotation matrices ``(..., 3, 3)`` of rotation vectors ``(..., 3)`` (Rodrigues)."""
     angle = np.sqrt(np.sum(v * v, axis=-1))
     small = angle < 1e-12
     a = np.where(small, 1.0, angle)
-    k = v / a[..., None]
     s, c = np.sin(angle)[..., None, None], (1.0 - np.cos(angle))[..., None, None]
-    kx, ky, kz = k[..., 0], k[..., 1], k[..., 2]
-    zero = np.zeros_like(kx)
-    skew = np.stack([zero, -kz, ky, kz, zero, -kx, -ky, kx, zero], axis=-1).reshape(k.shape[:-1] + (3, 3))
+    skew = cross_matrix(v / a[..., None])
     return np.eye(3) + s * skew + c * (skew @ skew)

@@ -279,9 +279,7 @@ def _right_jacobian(v: np.ndarray) -> np.ndarray:
     t = np.where(small, 1.0, theta)
     a = np.where(small, 0.5 - theta2 / 24.0, (1.0 - np.cos(t)) / (t * t))  # (1 − cos θ) / θ²
     b = np.where(small, 1.0 / 6.0 - theta2 / 120.0, (t - np.sin(t)) / (t * t * t))  # (θ − sin θ) / θ³
-    k = np.zeros(v.shape[:-1] + (3, 3))
-    k[..., 0, 1], k[..., 0, 2], k[..., 1, 2] = -v[..., 2], v[..., 1], -v[..., 0]
-    k[..., 1, 0], k[..., 2, 0], k[..., 2, 1] = v[..., 2], -v[..., 1], v[..., 0]
+    k = quat.cross_matrix(v)
     return np.eye(3) - a[..., None, None] * k + b[..., None, None] * (k @ k)
 
 
