@@ -714,7 +714,7 @@ def test_a_start_cut_short_lifts_its_first_foot_at_the_walks_pace(bandai, seed, 
     """A start cut short by a command plays the walk at once under the decaying offset of the pose shown, still
     mostly the stand's. The planter kept the first foot over the walk's examples' whole lift from that frame on, and
     the foot rose 4.6 cm in a frame (a random script, seed 217: the knee at 750 deg/s, the walk's own 407). The lift
-    kept under it now grows as the offset decays (``player._offset_lifts``). A bow asked for 0.1-0.23 s into a start:
+    kept under it now grows as the offset decays (``player._eased``). A bow asked for 0.1-0.23 s into a start:
     the legs turn no faster than 1.5x the walk's own (before: up to 1.98x, in 4 of these 9)."""
     from test_transitions import _angular_speed
 
@@ -730,6 +730,36 @@ def test_a_start_cut_short_lifts_its_first_foot_at_the_walks_pace(bandai, seed, 
         shown = _angular_speed(perf.planted.rotations)[int(0.3 * FPS) : int(1.5 * FPS), legs].max()
         assert shown <= 1.5 * own, f"a bow {delay:.2f} s into the start: legs at {shown / own:.2f}x the walk's own"
     assert cut >= 2, cut
+
+
+@pytest.mark.parametrize("seed", [0, 2, 7])
+def test_a_walk_to_run_cut_short_by_a_command_keeps_the_swinging_foot_up(bandai, seed):
+    """A walk → run cut short two frames in by a command plays the run at once under the decaying offset of the pose
+    shown (the command's own verb comes later). The offset took the run's swinging foot 30-45 mm under the floor, and
+    the planter kept it over the examples' lift only as far as the offset had decayed: the foot came down early and
+    skimmed the floor at 3-7 m/s. Under the offset a free foot is now kept over a floor rising from where it was
+    (``planter.RISE``): no toe travels low more than 2 cm further than the walk's and the run's own. Random scripts
+    of that scenario (seed: adverbs, when the run is asked, the command); these three were 115-172 mm over, now
+    2-31 mm under; of 14 seeds, 10 were over 2 cm (24-187 mm), 2 are now (the same 24 and 39 mm)."""
+    rng = np.random.default_rng(seed)
+    adverbs = {"valence": float(rng.uniform(-0.5, 0.5)), "energy": float(rng.uniform(-0.4, 0.4))}
+    at, then = float(rng.uniform(2.5, 4.0)), str(rng.choice(["idle", "bow", "reach", "guide"]))
+    cues = [Cue(0.5, "walk"), Cue(at, "run")]
+    plain = perform(bandai, cues, seconds=8.0, seed=seed, adverbs=adverbs, start="idle")
+    start = _begins(bandai, plain, "walk", "run")
+    perf = perform(bandai, [*cues, Cue((start + 2) / FPS, then)], seconds=8.0, seed=seed, adverbs=adverbs, start="idle")
+    assert perf.active[start] == plain.active[start] and perf.active[start + 2] != plain.active[start + 2], (
+        "the command should cut the walk -> run short two frames in"
+    )
+    toes = _toes(bandai)
+    own = 0.0
+    for verb in ("walk", "run"):
+        alone = perform(bandai, [], seconds=6.0, seed=seed, start=verb, adverbs=adverbs, stay=True)
+        p = alone.planted.global_positions()[:, toes]
+        own = max(own, low_travel(p, _contact(p), np.arange(30, len(p))))
+    pos = perf.planted.global_positions()[:, toes]
+    travel = low_travel(pos, _contact(pos), np.arange(start, start + 25))
+    assert travel <= own + 0.02, f"a low toe travels {travel * 1000:.0f} mm (the walk's and run's own {own * 1000:.0f})"
 
 
 def test_a_foot_held_through_a_start_rolls_with_the_blend(bandai):

@@ -15,7 +15,7 @@ The arguments come in tuples (what ``FootPlanter`` keeps):
   from normals by central differences ``step`` apart, as ``Floor.normal`` takes them).
 * ``legs = (heights, opens, heel_heights, tip_offset, heel_axis)``, per effector ``(L,)`` (``(L, 3)``).
 * ``state = (mode, turn, target, held_rot, offset, offset_vel, since, spent, rising, rel_vec, rot_since,
-  settle, hover, ground, prev_free, drop, heel)``: ``FootPlanter``'s state arrays, updated in place.
+  settle, hover, ground, prev_free, drop, heel, kept)``: ``FootPlanter``'s state arrays, updated in place.
 * ``k_``: the planter's constants, :func:`constants`.
 """
 
@@ -38,17 +38,17 @@ PLANE, GRID = 0, 1
 FREE, HEEL, BALL = 0, 1, 2  # planting.FREE, HEEL, BALL
 # Where each constant sits in ``k_`` (see constants()).
 _SWING, _LN2, _OFFSET, _SETTLE, _CLEARANCE, _STILL_DOWN, _LIFTS_OFF, _TOE_LANDS, _FADE = 0, 1, 2, 5, 6, 7, 8, 9, 10
-_SWING_LIFT, _LIFT_BLEND, _HEEL_LIFT, _HEEL_STEEPEST, _INSIDE, _TRAILING, _SLACK = 11, 12, 13, 14, 15, 16, 17
+_SWING_LIFT, _LIFT_BLEND, _HEEL_LIFT, _HEEL_STEEPEST, _INSIDE, _TRAILING, _SLACK, _RISE = 11, 12, 13, 14, 15, 16, 17, 18
 
 
 def constants(swing, ln2, halflives, settle, clearance, still_down, lifts_off, toe_lands, drop_halflife, swing_lift,
-              lift_blend, heel_lift, heel_steepest, inside, trailing, slack):  # fmt: skip
+              lift_blend, heel_lift, heel_steepest, inside, trailing, slack, rise):  # fmt: skip
     """``k_``: ``SWING_HALFLIFE``, ln 2, the free offset's half-lives ``(3,)``, ``SETTLE_HALFLIFE``,
     ``SWING_CLEARANCE``, ``STILL_DOWN``, ``LIFTS_OFF``, ``TOE_LANDS``, ln 2 / ``DROP_HALFLIFE``, ``SWING_LIFT``,
-    ``LIFT_BLEND``, ``HEEL_LIFT``, ``HEEL_STEEPEST``, ``INSIDE``, ``TRAILING`` and ``EXAMPLE_SLACK``."""
+    ``LIFT_BLEND``, ``HEEL_LIFT``, ``HEEL_STEEPEST``, ``INSIDE``, ``TRAILING``, ``EXAMPLE_SLACK`` and ``RISE``."""
     return np.array([
         swing, ln2, *halflives, settle, clearance, still_down, lifts_off, toe_lands, ln2 / drop_halflife, swing_lift,
-        lift_blend, heel_lift, heel_steepest, inside, trailing, slack,
+        lift_blend, heel_lift, heel_steepest, inside, trailing, slack, rise,
     ])  # fmt: skip
 
 
@@ -236,28 +236,29 @@ def _land(c, i, point, height, floor, state):
 
 
 @njit(cache=True, _nrt=True)  # allocates: counts even when its caller is compiled without counting
-def advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, examples_in, use_phases, dt, start, times,
-            cyclic, verb_floor, legs, k_, floor, state, shown_out, wanted_out):  # fmt: skip
+def advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, examples_in, eased_in, use_phases, dt, start,
+            times, cyclic, verb_floor, legs, k_, floor, state, shown_out, wanted_out):  # fmt: skip
     """``FootPlanter.targets_reference``: every creature's effectors advanced by one frame (``state`` in place);
     their targets into ``shown_out (C, L, 3)`` and wanted orientations into ``wanted_out (C, L, 3, 3)``.
 
     ``generic (C,)`` or, with ``use_phases``, ``inside_in``, ``turn_in``, ``swing_in``, ``examples_in (C, L)`` (the
-    examples' lifts, ``-inf`` for none; without phases, none); ``dt (C,)``; ``start``: the
-    first frame (the contact levels from the feet that are down); ``times (C, L, 3)``: the holds' times.
+    examples' lifts, ``-inf`` for none; without phases, none) and ``eased_in (C,)`` (their share under a decaying
+    offset, 1 for none); ``dt (C,)``; ``start``: the first frame (the contact levels from the feet that are down);
+    ``times (C, L, 3)``: the holds' times.
     """
     n_l = free_pos.shape[1]
     inside = np.empty(n_l, dtype=np.bool_)
     buf = np.empty(3 * n_l + 4 * 3 + 4 + 3 * 9 + 4 * 9 + 2 * 4)
-    _advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, examples_in, use_phases, dt, start, times,
-             cyclic, verb_floor, legs, k_, floor, state, shown_out, wanted_out, inside, buf)  # fmt: skip
+    _advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, examples_in, eased_in, use_phases, dt, start,
+             times, cyclic, verb_floor, legs, k_, floor, state, shown_out, wanted_out, inside, buf)  # fmt: skip
 
 
 @njit(cache=True, _nrt=False)
-def _advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, examples_in, use_phases, dt, start, times,
-             cyclic, verb_floor, legs, k_, floor, state, shown_out, wanted_out, inside, buf):  # fmt: skip
+def _advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, examples_in, eased_in, use_phases, dt, start,
+             times, cyclic, verb_floor, legs, k_, floor, state, shown_out, wanted_out, inside, buf):  # fmt: skip
     """:func:`advance` in its working arrays ``inside (L,)`` and ``buf`` (not counted: see ``_frame_kernel``)."""
     mode, turn, _, held_rot, offset, offset_vel, since, spent, rising, rel_vec, rot_since, settle = state[:12]
-    hover, ground, prev_free = state[12], state[13], state[14]
+    hover, ground, prev_free, kept = state[12], state[13], state[14], state[17]
     heights, opens, heel_heights, tip, heel_axis = legs
     n_c, n_l = free_pos.shape[0], free_pos.shape[1]
     clearance, still_down, lifts_off, toe_lands = k_[_CLEARANCE], k_[_STILL_DOWN], k_[_LIFTS_OFF], k_[_TOE_LANDS]
@@ -318,8 +319,13 @@ def _advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, examples
             # Where the free rule puts the foot: the verb's, lowered by its hover, no lower than its examples lift
             # it there, on the floor, lifted at least the swing's least lift.
             swung = raised
+            ex = examples_in[c, i] if use_phases else -np.inf
+            easing = use_phases and eased_in[c] < 1.0 and math.isfinite(ex)
+            if easing:  # eased in, no lower than a floor rising from where a free foot was (FootPlanter.targets)
+                cap = lift if math.isnan(kept[c, i]) else kept[c, i] + k_[_RISE] * d
+                ex = min(ex, max(ex * eased_in[c], cap))
             if use_phases:
-                below = _lowered(examples_in[c, i], level, clearance) - raised - k_[_SLACK]
+                below = _lowered(ex, level, clearance) - raised - k_[_SLACK]
                 swung += _ramp(below, k_[_LIFT_BLEND])
             # (Not for a foot about to land; one its verbs hold past heel-off while still in the air is lifting.)
             lifting = held and m == FREE and tn > 0.0 and swings[i] > 0.0
@@ -378,6 +384,7 @@ def _advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, examples
             turn[c, i] = tn
             for a in range(3):
                 prev_free[c, i, a] = fp[a]
+            kept[c, i] = ex if easing and mode[c, i] == FREE else np.nan
             if fresh:  # nothing _shown reads has changed since it ran
                 for a in range(3):
                     shown_out[c, i, a] = shown[a]
@@ -508,8 +515,8 @@ def _reach(hips, rises, targets, wanted, dt, tip, axis, reach_, max_drop, k_, st
 
 
 @njit(cache=True, _nrt=True)  # allocates: counts even when its caller is compiled without counting
-def step(parents, rotations, translations, generic, inside_in, turn_in, swing_in, examples_in, use_phases, dt, start,
-         times, cyclic, verb_floor, tips, root, legs, k_, floor, state, chain, ik_params, out):  # fmt: skip
+def step(parents, rotations, translations, generic, inside_in, turn_in, swing_in, examples_in, eased_in, use_phases, dt,
+         start, times, cyclic, verb_floor, tips, root, legs, k_, floor, state, chain, ik_params, out):  # fmt: skip
     """``FootPlanter.step_reference`` of ``C`` creatures' poses ``rotations (C, J, 4)``, ``translations (C, J, 3)``,
     planted in place: FK, :func:`advance`, :func:`rise`, :func:`reach`, the pelvis raised
     (``planting._ride_floor``), the feet's tilts (``FootPlanter._tilts``), then the IK
@@ -522,13 +529,14 @@ def step(parents, rotations, translations, generic, inside_in, turn_in, swing_in
     Returns whether every target is finite (if not, the IK is not run).
     """
     buf = np.empty(rotations.shape[0] * (24 * len(tips) + 1))
-    return _step(parents, rotations, translations, generic, inside_in, turn_in, swing_in, examples_in, use_phases, dt,
-                 start, times, cyclic, verb_floor, tips, root, legs, k_, floor, state, chain, ik_params, out, buf)  # fmt: skip
+    return _step(parents, rotations, translations, generic, inside_in, turn_in, swing_in, examples_in, eased_in,
+                 use_phases, dt, start, times, cyclic, verb_floor, tips, root, legs, k_, floor, state, chain, ik_params,
+                 out, buf)  # fmt: skip
 
 
 @njit(cache=True, _nrt=False)
-def _step(parents, rotations, translations, generic, inside_in, turn_in, swing_in, examples_in, use_phases, dt, start,
-          times, cyclic, verb_floor, tips, root, legs, k_, floor, state, chain, ik_params, out, buf):  # fmt: skip
+def _step(parents, rotations, translations, generic, inside_in, turn_in, swing_in, examples_in, eased_in, use_phases, dt,
+          start, times, cyclic, verb_floor, tips, root, legs, k_, floor, state, chain, ik_params, out, buf):  # fmt: skip
     """:func:`step` in its working array ``buf`` (not counted: see ``runtime._frame_kernel``)."""
     above, upper, middle, end, hinge, upper_offset, end_offset, path, reach_ = chain
     min_flex, converged, max_drop = ik_params
@@ -547,8 +555,8 @@ def _step(parents, rotations, translations, generic, inside_in, turn_in, swing_i
                 free_pos[c, i, a] = gpos[c, tips[i], a]
                 hips[c, i, a] = gpos[c, upper[i], a]
             _quat_to_mat(grot[c, end[i]], free_rot[c, i])
-    advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, examples_in, use_phases, dt, start, times,
-            cyclic, verb_floor, legs, k_, floor, state, targets, wanted)  # fmt: skip
+    advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, examples_in, eased_in, use_phases, dt, start,
+            times, cyclic, verb_floor, legs, k_, floor, state, targets, wanted)  # fmt: skip
     rise(gpos[:, root], targets, verb_floor, floor, rises)
     reach(hips, rises, targets, wanted, dt, tip, legs[4], reach_, max_drop, k_, state)
     pelvis = above[len(above) - 1]

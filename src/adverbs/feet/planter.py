@@ -86,6 +86,7 @@ LIFT_BLEND = 0.02  # metres: within this of the least lift, the verb's swing joi
 LIFTS_OFF = 0.02  # metres: a rolling foot's ball this far above its contact level is lifting off
 STILL_DOWN = 0.005  # metres: a held ball the verb raises less than this over its level is still down
 TOE_LANDS = 0.003  # metres: a rolling foot's ball this close to its contact height has landed
+RISE = 0.3  # m/s: under a decaying offset, how fast the examples' lift under a free foot may rise from where it was
 EXAMPLE_SLACK = 0.002  # metres: a swing this little under its examples' blended lift is left as the verb has it (the
 # examples' lifts are sampled 128 times a cycle and read linearly between: within 1.1 mm of their own on the shipped verbs)
 
@@ -149,6 +150,7 @@ class FootPlanter:
         self.hover = np.zeros((c, n))  # the verb's contact level, lowering the free foot
         self.ground = np.zeros((c, n))  # its lowest point over the current hold: the next hover
         self.prev_free = np.zeros((c, n, 3))
+        self.kept = np.full((c, n), np.nan)  # a free foot's least examples' lift under a decaying offset (NaN: none)
         kernel_floor = _compiled_floor(self.floor) if compiled else None
         self._compiled = None if kernel_floor is None else _Compiled(self, kernel_floor)
 
@@ -205,10 +207,19 @@ class FootPlanter:
         generic time; ``dt``: seconds since the previous frame (one for all, or ``(C,)``). The orientations
         include the floor's tilt. ``phases``: instead of ``generic``, whether each hold is open ``(C, L)``, how
         far each foot has rolled off ``(C, L)`` and, optionally, how much of the least swing lift applies
-        ``(C, L)`` (:func:`swing_lifts`; none if not given) and the examples' lift ``(C, L)`` (:func:`example_lifts`;
-        none if not given), from elsewhere (a verb graph's blend of two verbs). Given ``generic``, the examples'
+        ``(C, L)`` (:func:`swing_lifts`; none if not given), the examples' lift ``(C, L)`` (:func:`example_lifts`;
+        none if not given) and, optionally, the share ``(C,)`` of it a decaying offset leaves (``Frame.eased``; 1:
+        all of it), from elsewhere (a verb graph's blend of two verbs). Given ``generic``, the examples'
         lift is not kept: a verb sampled by its clock fades each later cycle's seam, which its examples' lifts do
         not follow.
+
+        Under a decaying offset (a share below 1) a free foot is kept over that share of the examples' lift, or over
+        a floor rising from where the foot was as the offset began (or as it was let go) at most ``RISE``, whichever
+        is higher, and never over the whole lift. Kept over the share alone, a walk -> run cut short by a command
+        (the run played at once under the offset of the walk's pose) brought the swinging foot down early: the offset
+        took the run's foot 30-45 mm under the floor and it skimmed it at 3-7 m/s, 24-187 mm over the walk's and the
+        run's own low travel in 10 of 14 random scripts (2 now, the same 24 and 39 mm). Kept over the whole lift, a
+        foot the walk had just lifted jumped from 12 to 82 mm in one frame.
         """
         verb, floor, tip = self.verb, self.floor, self.chains.tip_offset
         follows = np.broadcast_to(np.isnan(self.heights), self.mode.shape)  # effectors that keep the verb's height
@@ -222,6 +233,9 @@ class FootPlanter:
             inside, turn = (np.asarray(x) for x in phases[:2])
             swing = np.asarray(phases[2], dtype=float) if len(phases) > 2 else np.zeros(self.mode.shape)
             examples = np.asarray(phases[3], dtype=float) if len(phases) > 3 else np.full(self.mode.shape, -np.inf)
+        eased = np.ones((self.creatures, 1))  # the examples' lift's share under a decaying offset (Frame.eased)
+        if phases is not None and len(phases) > 4 and phases[4] is not None:
+            eased = np.asarray(phases[4], dtype=float)[:, None]
         # How far the verb's effector is above its contact height (its own floor at these adverbs).
         lift = np.where(follows, 0.0, free_pos[..., 1] - verb.floor - height)
         if not self.started:  # the verb's level from the feet that are down now, else none
@@ -252,6 +266,13 @@ class FootPlanter:
         # there (blended at these adverbs: a blend of leg rotations swings lower than any of them), on the floor,
         # and at least the swing's least lift over it (a verb that drags its foot through the swing has it lifted).
         base = free_pos.copy()
+        # Under a decaying offset the examples' lift is eased in (``eased``, its share), but no lower than a floor
+        # that rises from where a free foot was, at most RISE: a foot swinging high as the offset was taken stays up
+        # (``kept``: that floor, a frame ago; NaN where the foot was held or no offset eased the lift).
+        dtl = dt[..., 0]
+        cap = np.where(np.isnan(self.kept), lift, self.kept + RISE * dtl)
+        easing = (eased < 1.0) & np.isfinite(examples)
+        examples = np.where(easing, np.minimum(examples, np.maximum(examples * eased, cap)), examples)
         swung = raised + _ramp(_lowered(examples, level) - raised - EXAMPLE_SLACK, LIFT_BLEND)
         # (Not for a foot about to land; but one its verbs hold past heel-off while it is still in the air is lifting:
         # a stop turned back into the walk gave its landing foot the walk's hold, and it dropped 20 mm in a frame.)
@@ -300,6 +321,7 @@ class FootPlanter:
         self.ground = np.where(held, np.minimum(self.ground, lift), self.ground)
         self.turn = turn
         self.prev_free[:] = free_pos
+        self.kept = np.where(easing & (self.mode == FREE), examples, np.nan)
         shown, wanted = self._shown(base, height, follows, free_rot, free_wanted, turn)
         return shown, wanted
 
@@ -496,7 +518,7 @@ class _Compiled:
         self.floor = floor  # _compiled_floor(planter.floor)
         self.constants = k.constants(
             SWING_HALFLIFE, _LN2, _HALFLIVES, SETTLE_HALFLIFE, SWING_CLEARANCE, STILL_DOWN, LIFTS_OFF, TOE_LANDS,
-            DROP_HALFLIFE, SWING_LIFT, LIFT_BLEND, HEEL_LIFT, HEEL_STEEPEST, INSIDE, TRAILING, EXAMPLE_SLACK,
+            DROP_HALFLIFE, SWING_LIFT, LIFT_BLEND, HEEL_LIFT, HEEL_STEEPEST, INSIDE, TRAILING, EXAMPLE_SLACK, RISE,
         )  # fmt: skip
         tip = np.ascontiguousarray(chains.tip_offset, dtype=float)
         self.legs = (planter.heights, planter.opens, planter.heel_heights, tip, np.ascontiguousarray(chains.heel_axis))
@@ -512,7 +534,8 @@ class _Compiled:
         self.root = int(verb.encoding.body_root)
         self.dt = np.empty(c)
         self.no_generic = np.zeros(c)  # stand-ins for the inputs not given
-        self.no_phases = (np.zeros((c, n), dtype=bool), np.zeros((c, n)), np.zeros((c, n)), np.full((c, n), -np.inf))
+        self.no_phases = (np.zeros((c, n), dtype=bool), np.zeros((c, n)), np.zeros((c, n)), np.full((c, n), -np.inf),
+                          np.ones(c))  # fmt: skip
         self.scratch: tuple | None = None  # step's arrays that are not returned
 
     def _state(self) -> tuple:
@@ -520,11 +543,12 @@ class _Compiled:
         p = self.planter
         return (
             p.mode, p.turn, p.target, p.held_rot, p.offset, p.offset_vel, p.since, p.spent, p.rising, p.rel_vec,
-            p.rot_since, p.settle, p.hover, p.ground, p.prev_free, p.drop, p.heel,
+            p.rot_since, p.settle, p.hover, p.ground, p.prev_free, p.drop, p.heel, p.kept,
         )  # fmt: skip
 
     def _frame(self, generic, dt, phases) -> tuple:
-        """``generic, inside, turn, swing, examples, use_phases`` as the kernel takes them; ``dt`` into ``self.dt``."""
+        """``generic, inside, turn, swing, examples, eased, use_phases`` as the kernel takes them; ``dt`` into
+        ``self.dt``."""
         self.dt[:] = dt
         shape = self.planter.mode.shape
         if phases is None:
@@ -538,7 +562,10 @@ class _Compiled:
         given = (inside, turn, swing, examples)
         if any(x.shape != shape or not x.flags.c_contiguous for x in given):
             inside, turn, swing, examples = (np.ascontiguousarray(np.broadcast_to(x, shape)) for x in given)
-        return self.no_generic, inside, turn, swing, examples, True
+        eased = self.no_phases[4] if len(phases) < 5 or phases[4] is None else np.asarray(phases[4], dtype=float)
+        if eased.shape != shape[:1] or not eased.flags.c_contiguous:
+            eased = np.ascontiguousarray(np.broadcast_to(eased, shape[:1]))
+        return self.no_generic, inside, turn, swing, examples, eased, True
 
     def _times(self) -> np.ndarray:
         """The holds' times ``(C, L, 3)`` (``set_weights`` and ``plant_feet_many`` set them)."""

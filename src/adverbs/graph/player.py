@@ -81,7 +81,8 @@ class Frame:
     """One frame of C creatures: local ``rotations (C, J, 4)``, ``translations (C, J, 3)``, the ``root (C, 3)``,
     the root's velocities ``(C, 3)`` (sideways, forward m/s, turn rad/s), and per foot of the graph's feet
     ``held (C, L)``, ``roll (C, L)``, ``swing (C, L)`` and ``lifts (C, L)`` (see :func:`hold_phases`); the verbs
-    shown, ``verbs (C, 2)`` (A and B; A twice where a creature plays one verb) and A's weight ``alpha (C,)``."""
+    shown, ``verbs (C, 2)`` (A and B; A twice where a creature plays one verb), A's weight ``alpha (C,)`` and the
+    share ``eased (C,)`` of the examples' lifts a decaying offset leaves the planter (1 without one: :func:`_eased`)."""
 
     rotations: np.ndarray
     translations: np.ndarray
@@ -93,6 +94,7 @@ class Frame:
     lifts: np.ndarray
     verbs: np.ndarray
     alpha: np.ndarray
+    eased: np.ndarray
 
 
 def feet(graph: Graph) -> list[int]:
@@ -312,8 +314,9 @@ def _step(state: GraphState, dt: float) -> Frame:
     held, roll, swing, lifts = hold_phases(state)
     blended = np.zeros(state.creatures, dtype=bool)
     blended[live] = True
+    eased = np.ones(state.creatures)
     if len(live):  # the examples' lifts kept under the foot as much as the pose shown has become the verbs'
-        lifts[live] = _offset_lifts(lifts[live], state.offset_since[live], state.offset_halflife[live])
+        eased[live] = _eased(state.offset_since[live], state.offset_halflife[live])
     # One verb (alone, or looping into itself: its instances keep their feet alike) and no decaying offset.
     state.alone = ((state.active < 0) | ~state.graph.between_verbs[state.active]) & ~blended
     state.standing = _standing(state)
@@ -322,7 +325,7 @@ def _step(state: GraphState, dt: float) -> Frame:
     state.root = new_root
     state.shown_before, state.shown = state.shown, (rot, trans, vel)
     state.held_before = held
-    return Frame(rot, trans, new_root.copy(), vel, held, roll, swing, lifts, _verbs(state), base.alpha.copy())
+    return Frame(rot, trans, new_root.copy(), vel, held, roll, swing, lifts, _verbs(state), base.alpha.copy(), eased)
 
 
 def _arms(state: GraphState, rot: np.ndarray, rot_b: np.ndarray | None, rebased: np.ndarray, dt: float) -> None:
@@ -391,7 +394,8 @@ def first_frame(state: GraphState) -> Frame:
     state.standing = _standing(state)
     state.moving = base.velocity.copy()
     state.shown, state.held_before = (rot, trans, base.velocity.copy()), held
-    return Frame(rot, trans, state.root.copy(), base.velocity.copy(), held, roll, swing, lifts, _verbs(state), base.alpha.copy())
+    return Frame(rot, trans, state.root.copy(), base.velocity.copy(), held, roll, swing, lifts, _verbs(state),
+                 base.alpha.copy(), np.ones(state.creatures))  # fmt: skip
 
 
 def _verbs(state: GraphState) -> np.ndarray:
@@ -404,13 +408,14 @@ def _entering(state: GraphState) -> np.ndarray:
     return np.where(state.active >= 0, state.into, state.verb)
 
 
-def _offset_lifts(lifts: np.ndarray, since: np.ndarray, halflife: np.ndarray) -> np.ndarray:
-    """The examples' lifts ``(n, L)`` of creatures under a decaying offset: as much of each as the offset has decayed
-    (its spring's weight gone), so the foot is kept over them only as the pose shown has become the verb's. Kept
-    over the walk's whole lift at once, the first foot of a start cut short by a command (the walk played at once
-    under the offset of the pose shown, still mostly the stand's) rose 4.6 cm in a frame, the knee at 750 deg/s."""
-    w = 1.0 - _spring(1.0, 0.0, since, halflife)[:, None]
-    return np.where(np.isfinite(lifts), lifts * w, lifts)
+def _eased(since: np.ndarray, halflife: np.ndarray) -> np.ndarray:
+    """The share ``(n,)`` of the examples' lifts the planter keeps a free foot over under a decaying offset: as much
+    as the offset has decayed (its spring's weight gone), so the foot is kept over them only as the pose shown has
+    become the verb's (``Frame.eased``). Kept over the walk's whole lift at once, the first foot of a start cut short
+    by a command (the walk played at once under the offset of the pose shown, still mostly the stand's) rose 4.6 cm
+    in a frame, the knee at 750 deg/s. The planter keeps a foot that was higher no lower than a floor rising from
+    where it was (``planter.RISE``)."""
+    return 1.0 - _spring(1.0, 0.0, since, halflife)
 
 
 def _standing(state: GraphState) -> np.ndarray:

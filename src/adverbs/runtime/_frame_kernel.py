@@ -548,7 +548,7 @@ def _creature(c, dt, flags, turns, hbox, buf, hb):  # pragma: no cover
     offset_rot, offset_rot_vel, offset_trans, offset_trans_vel = state[11], state[12], state[13], state[14]
     offset_root, offset_since, offset_halflife, moving, root, held_before = state[15:21]
     rot, trans, vel_out, shown_rot, shown_trans, before_rot, before_trans, shown_vel = buffers
-    held, roll, swing, kinds, _, _, lifts = outputs  # (events and g_settle: _advance's)
+    held, roll, swing, kinds, _, _, lifts, eased = outputs  # (events and g_settle: _advance's)
     parents, feet, above_inv, body, arms = skeleton[:5]
     d_a, d_b, e_a, e_b, vel, vel0, r1, r2, blend = scratch[:9]
     rot_b, trans_b, rot0, trans0, hb, rb, sb, wts = scratch[9:17]
@@ -669,11 +669,8 @@ def _creature(c, dt, flags, turns, hbox, buf, hb):  # pragma: no cover
                     swing[c, i] = max(sa, sb[i])
                 elif not ha and not hb[i]:
                     swing[c, i] = min(sa, sb[i])
-    if live:  # the examples' lifts as much as the offset has decayed (player._offset_lifts)
-        w = 1.0 - spring(1.0, 0.0, offset_since[c], offset_halflife[c], k_[_LN2])
-        for i in range(lifts.shape[1]):
-            if math.isfinite(lifts[c, i]):
-                lifts[c, i] *= w
+    # The examples' lifts' share under a decaying offset: as much as it has decayed (player.step).
+    eased[c] = 1.0 - spring(1.0, 0.0, offset_since[c], offset_halflife[c], k_[_LN2]) if live else 1.0
     kinds[c, 0] = (not is_moving or not transitions[3][active[c]]) and not live  # one verb (player._step)
     kinds[c, 1] = not verbs[5][into[c] if is_moving else verb[c]]  # standing, or coming to stand (player._standing)
     # The body carried by the held feet's slip in a blend (player._keep_feet).
@@ -881,7 +878,7 @@ def _plant(lo, hi, dt, outputs, planted, feet, start, k_, mix):  # pragma: no co
     to re-place (``GraphFeet``). ``start``: the planter's first frame; ``dt``: its step, every creature's; ``mix``:
     the state's verb, into, active, beta and inertial (the verbs shown, for each foot's contact level). ``feet``: the
     planter's held arrays, borrowed (:func:`_frame` takes them out of their ``Held``: not without counting)."""
-    held, roll, swing, kinds, lifts = outputs[0], outputs[1], outputs[2], outputs[3], outputs[6]
+    held, roll, swing, kinds, lifts, eased = outputs[0], outputs[1], outputs[2], outputs[3], outputs[6], outputs[7]
     (parents, generic, inside, dts, times, cyclic, verb_floor, tips, root, legs, constants, floor, st, chain,
      ik_params, scratch, drop, residual, replanting, levels, hover0, level0) = feet  # fmt: skip
     rot, trans = planted
@@ -912,12 +909,12 @@ def _plant(lo, hi, dt, outputs, planted, feet, start, k_, mix):  # pragma: no co
     s = slice(lo, hi)
     sliced = (
         st[0][s], st[1][s], st[2][s], st[3][s], st[4][s], st[5][s], st[6][s], st[7][s], st[8][s], st[9][s], st[10][s],
-        st[11][s], st[12][s], st[13][s], st[14][s], st[15][s], st[16][s],
+        st[11][s], st[12][s], st[13][s], st[14][s], st[15][s], st[16][s], st[17][s],
     )  # fmt: skip
     out = (scratch[0][s], scratch[1][s], scratch[2][s], scratch[3][s], drop[s], residual[s])
     finite = plant_step(
-        parents, rot[s], trans[s], generic[s], inside[s], roll[s], swing[s], lifts[s], True, dts[s], start, times[s], cyclic,
-        verb_floor, tips, root, legs, constants, floor, sliced, chain, ik_params, out,
+        parents, rot[s], trans[s], generic[s], inside[s], roll[s], swing[s], lifts[s], eased[s], True, dts[s], start,
+        times[s], cyclic, verb_floor, tips, root, legs, constants, floor, sliced, chain, ik_params, out,
     )  # fmt: skip
     turn, target, spent, prev_free = st[1], st[2], st[7], st[14]
     for c in range(lo, hi):

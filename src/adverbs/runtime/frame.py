@@ -184,6 +184,7 @@ class FramePass:
         self._feet_boxed = None
         self.held, self.roll, self.swing = np.zeros((c, n_l), dtype=bool), np.zeros((c, n_l)), np.zeros((c, n_l))
         self.lifts = np.full((c, n_l), -np.inf)
+        self.eased = np.ones(c)
         # Which creatures play one verb, and which stand (GraphState.alone, .standing): one array, so the kernel's
         # outputs stay seven (an eighth array in them cost a tenth of a crowd's frame, 10,000 creatures 94 -> 105 ms;
         # why was not found).
@@ -365,7 +366,7 @@ class FramePass:
         if self._box_key is not None and all(map(operator.is_, key, self._box_key)):
             return self._boxed
         t = self.tables
-        outputs = (self.held, self.roll, self.swing, self.kinds, self.events, self.g_settle, self.lifts)
+        outputs = (self.held, self.roll, self.swing, self.kinds, self.events, self.g_settle, self.lifts, self.eased)
         self._box_key = key
         self._boxed = hold((
             t.verbs, t.transitions, t.skeleton, self._caches, arrays, state.head, tuple(self._poses), outputs,
