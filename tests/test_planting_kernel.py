@@ -4,7 +4,7 @@ A walk (lands on the heel) and a run (lands on the ball) of the shipped specs, e
 adverb point (at the examples, between them and 25% past them), planted over two cycles on a flat floor, a
 flat floor at another level, a 10° slope and a bumpy height map; the holds given by generic time (a verb
 alone) or as phase masks with some holds switched off for a while (a verb graph's path: early releases and
-feet found down in mid-stance). Every state array, every target and wanted orientation, the root drop and
+feet found down in mid-stance), with the examples' lifts eased in as under a decaying offset. Every state array, every target and wanted orientation, the root drop and
 the planted pose must agree to 1e-9 (modes and flags exactly), for a crowd in one planter and for one creature.
 """
 
@@ -19,7 +19,7 @@ from adverbs.apps.evaluate import obedience_points
 from adverbs.kinematics import quat
 from adverbs.kinematics.fk import forward_kinematics
 from adverbs.kinematics.floor import FlatFloor, HeightMapFloor, SlopeFloor
-from adverbs.feet.planter import BALL, FREE, HEEL, FootPlanter, frame_generic, hold_modes, swing_lifts
+from adverbs.feet.planter import BALL, FREE, HEEL, FootPlanter, example_lifts, frame_generic, hold_modes, swing_lifts
 
 TOL = 1e-9
 _x = np.arange(-40.0, 40.01, 0.5)
@@ -28,7 +28,7 @@ FLOORS = {"flat": FlatFloor(0.0), "level 0.3": FlatFloor(0.3), "slope 10°": Slo
 VERBS = ["cmu_walk", "cmu_run"]
 EXACT = ("mode", "spent", "settle", "started")
 CLOSE = ("turn", "target", "held_rot", "offset", "offset_vel", "since", "drop", "rising", "rel_vec", "rot_since",
-         "hover", "ground", "prev_free", "heel")  # fmt: skip
+         "hover", "ground", "prev_free", "heel", "kept")  # fmt: skip
 
 
 def _motions(verb):
@@ -45,13 +45,17 @@ def _motions(verb):
     return rot, trans, g, pts
 
 
-def _phases(planter, g, f):
+def _phases(planter, weights, g, f):
     """The holds at generic times ``g (C,)`` as masks, with each creature's holds switched off for 5 frames of
-    every 40 (at different frames for each creature and leg), and the swings' least lifts."""
+    every 40 (at different frames for each creature and leg), the swings' least lifts, the examples' lifts 3 cm over
+    their own (so they hold the foot up), and their share under a decaying offset: rising from 0 to 1 over 24
+    frames of every 40 (at different frames for each creature), then all of it."""
     inside, turn = hold_modes(planter.verb.cyclic, g[:, None], planter.opens, planter.times)
     swing = swing_lifts(planter.verb.cyclic, g[:, None], planter.opens, planter.times)
     c, legs = np.meshgrid(np.arange(inside.shape[0]), np.arange(inside.shape[1]), indexing="ij")
-    return inside & ((f + 7 * c + 13 * legs) % 40 >= 5), turn, swing
+    examples = example_lifts(planter.verb, weights, g) + 0.03
+    eased = np.minimum(((f + 11 * np.arange(len(g))) % 40) / 24.0, 1.0)
+    return inside & ((f + 7 * c + 13 * legs) % 40 >= 5), turn, swing, examples, eased
 
 
 def _assert_same_state(compiled, reference, what):
@@ -88,7 +92,7 @@ def test_compiled_planter_is_the_reference(motions, name, floor, source):
     tips, ends, upper = made["step"][0].tips, verb.leg_chains.end, verb.leg_chains.upper
     seen = set()
     for f in range(len(g)):
-        phases = _phases(made["step"][1], g[f], f) if source == "phases" else None
+        phases = _phases(made["step"][1], weights, g[f], f) if source == "phases" else None
         generic = None if phases else g[f]
         gpos, grot = forward_kinematics(verb.skeleton.parents, rot[f], trans[f])
         free_pos, free_rot = gpos[:, tips], quat.to_matrix(grot[:, ends])
