@@ -77,10 +77,11 @@ class Measured:
 
 def window(m: Measured, ref: dict[str, float], a: int, b: int, whole: tuple[int, int] | None = None) -> list[float]:
     """Frames ``a`` to ``b`` of a performance against its verbs' own ``ref``: toe over own (m), arms, legs, trunk
-    and root acceleration over their own, hips over the unplanted; the toe and the hips over ``whole`` (frames, the
-    whole window a part of it is in: test_edges._settled) when given."""
+    and root acceleration over their own, hips over the unplanted; the hips over ``whole`` (frames, the whole window a
+    part of it is in: test_edges._settled) when given, and the toe's ways along the floor that go on in ``a`` to
+    ``b``, each whole over it."""
     frames = np.arange(*(whole or (a, b)))
-    row = [low_travel(m.toes, m.contact, frames) - ref["toe"]]
+    row = [low_travel(m.toes, m.contact, frames, (a, b) if whole else None) - ref["toe"]]  # the ways in a to b, whole
     row += [float(m.parts[p][a:b].max()) / max(ref[p], 1e-9) for p in PARTS]  # its steps: from frame a − 1 to b − 1
     row.append(float(m.acc[a:b].max()) / max(ref["acc"], 1e-9))
     row.append(float(np.ptp(m.hips[frames])) / max(float(np.ptp(m.free_hips[frames])), 0.002))

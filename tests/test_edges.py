@@ -24,6 +24,7 @@ from adverbs.kinematics import quat
 
 GRAPHS = Path(__file__).resolve().parent.parent / "graphs"
 LOW = 0.02  # metres over the toe's contact height: "on the floor"
+MOVING = 0.001  # metres a frame: a toe that moves less is still (a way along the floor does not go on in such frames)
 FPS = 30.0
 PARTS = {  # the parts of a body whose joints' speeds are held to their verbs' own, by what their joints' names hold
     "arms": ("shoulder", "arm", "hand", "humerus", "radius", "wrist", "clavicle", "finger", "thumb"),
@@ -50,20 +51,26 @@ def _toes(graph):
     return [names.index(n) for n in ("Toes_L", "Toes_R")]
 
 
-def low_travel(positions: np.ndarray, contact: np.ndarray, frames: np.ndarray) -> float:
+def low_travel(positions: np.ndarray, contact: np.ndarray, frames: np.ndarray, within: tuple | None = None) -> float:
     """The longest way (m) a toe goes across the floor over consecutive ``frames`` while within :data:`LOW` of its
-    contact height: ``positions (F, T, 3)`` of T toes, ``contact (T,)``."""
+    contact height: ``positions (F, T, 3)`` of T toes, ``contact (T,)``. ``within (a, b)``: only ways that go on
+    (by :data:`MOVING` or more a frame) in frames ``a`` to ``b`` count, each whole: a part of a window
+    (:func:`_settled`) is charged with the ways that cross it, not with a step that landed before it began (a stop's
+    foot re-placed in the stop's settling half second, held still through the gesture after it)."""
     best = 0.0
     for i in range(positions.shape[1]):
-        travel = 0.0
+        travel, counts = 0.0, within is None
         for f in frames:
             if f == 0:
                 continue
             if positions[f, i, 1] - contact[i] < LOW:
-                travel += float(np.hypot(*(positions[f, i, [0, 2]] - positions[f - 1, i, [0, 2]])))
-                best = max(best, travel)
+                step = float(np.hypot(*(positions[f, i, [0, 2]] - positions[f - 1, i, [0, 2]])))
+                travel += step
+                counts = counts or (within[0] <= f < within[1] and step >= MOVING)
+                if counts:
+                    best = max(best, travel)
             else:
-                travel = 0.0
+                travel, counts = 0.0, within is None
     return best
 
 
@@ -97,7 +104,9 @@ def _settled(perf, graph, windows):
     transition starts first; the frames of that half second the next window takes are the earlier transition's
     landing still, and are measured against both transitions' verbs (a window of their own, named as the later
     one's). What a frame shows (a joint's speed, the root's acceleration) is measured part by part; what a span
-    shows (a toe's travel, the hips' range) over the whole window, as before. (Every Bandai stop blends into the
+    shows over the whole window: the hips' range, and a toe's ways along the floor, each whole, charged to the parts
+    it goes on in (``low_travel(within=...)``; until session 58 the whole window's longest way was charged to every
+    part, so a stop's step landing in its half second counted against the gesture after it as well). (Every Bandai stop blends into the
     whole stand, which is then at its end and past the start of its loop's region: the stand's loop into itself
     starts the frame after the stop ends. The stop's trailing foot, let go once the other has landed, lands in it
     0.2-0.3 s later, its knee at 230 deg/s where the stand's own legs turn at 10: against the stand alone, 22x.)"""
@@ -618,6 +627,34 @@ def test_a_standing_foot_is_re_placed_only_far_off_or_with_the_body_off_both():
     assert far((0.0, shift / 2 - 0.01), (0.0, shift / 2 + 0.01)) == [False, True]
     assert far((shift / 2 + 0.01, 0.0), (shift / 2 - 0.01, 0.0), flat=(True, False)) == [False, False]
     assert far((SHIFTED + 0.01, 0.0), (-SHIFTED - 0.01, 0.0)) == [False, False]  # a wider stance: the body over it
+
+
+@pytest.mark.parametrize("seed", [306, 311, 323])
+def test_a_stop_leaves_the_stand_and_the_gestures_after_it_on_their_own_stance(bandai, seed):
+    """A stop held its feet to 15 cm like any stand (``planted.STANDING``): the walk's last stance foot, 9-14 cm from
+    where the stand has it at sad valences, stayed there through the stand and the gestures after it until their
+    own sway took it past 15 cm, and it stepped in the middle of a gesture, the knee at 4-9x the stand's and the
+    gesture's own legs (at these seeds, in an idle → reach: 8.9x, 6.5x and 4.2x). A stop now re-places
+    a foot 9 cm off (``planted.STOPPING``): it steps as the stop ends, at the walk's pace, within the stop's half
+    second. Every standing window of these random scripts (a stand into a gesture, a gesture into the stand) turns
+    the legs no faster than 1.5x their verbs' own (each window's, and the stop's where it settles in it)."""
+    from test_transitions import _own
+
+    cues, adverbs = gesture_script(seed)
+    perf = perform(bandai, cues, seconds=28.0, seed=seed, adverbs=adverbs, start="idle")
+    legs = np.r_[0.0, _angular_speed(perf.planted.rotations)[:, _parts(bandai)["legs"]].max(axis=1)]
+    owns = {v: _own(bandai, v, _toes(bandai), seed, adverbs)["legs"] for v in bandai.verb_names}
+    gestures = ("reach", "bow", "guide", "bye")
+    kinds = {("idle", g) for g in gestures} | {(g, "idle") for g in gestures}
+    every = _windows(perf, bandai, {(x, y) for x in bandai.verb_names for y in bandai.verb_names})
+    worst, seen = [], 0
+    for s, t, a, b, also, _ in _settled(perf, bandai, every):
+        if (s, t) in kinds:
+            seen += 1
+            own = max(owns[v] for v in also | {s, t})
+            worst.append((round(float(legs[a:b].max() / own), 2), f"{s}→{t} at {a / FPS:.2f} s"))
+    assert seen >= 8, seen
+    assert max(worst)[0] <= 1.5, sorted(worst)[-3:]
 
 
 @pytest.mark.parametrize("gesture, valence", [("guide", 0.0), ("reach", 0.0), ("reach", -0.8), ("guide", 0.8)])

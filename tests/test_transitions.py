@@ -164,7 +164,7 @@ def _played(graph, name, seed, adverbs, script=None):
         own = [o for (start, end, _), o in zip(points, owns) if start <= b / FPS and a / FPS < end]
         verbs = verbs | {graph.verb_names[v] for v in perf.verb[a:b]} | {t} | ({s} if s != "cue" else set())
         ref = {k: max(o[v][k] for o in own for v in verbs) for k in own[0][t]}
-        shown = {"toe": low_travel(pos, contact, frames), "acc": float(acc[a:b].max())}
+        shown = {"toe": low_travel(pos, contact, frames, (a, b) if k >= 0 else None), "acc": float(acc[a:b].max())}
         shown |= {p: float(speed[a:b].max()) for p, speed in parts.items()}
         shown |= {"hips": float(np.ptp(hips[frames])), "free hips": float(np.ptp(free_hips[frames]))}
         shown["slowing"] = bool(np.isin(perf.active[frames], run_walk).any())

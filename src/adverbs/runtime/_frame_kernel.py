@@ -80,7 +80,7 @@ STARTED, FINISHED = 1, 2  # events: a transition started, or finished, this fram
 FREE, BALL = 0, 2  # planting.FREE, planting.BALL
 # Where each constant sits in ``k_`` (see frame.FramePass).
 (_LATE, _MIN_DURATION, _INERTIAL, _LN2, _REPLANT, _REPLANTED, _SWING, _LIFT, _LANDS, _LEFT_BEHIND, _RISE, _DELAY, _LAND, _MIN_LOOP,
- _STANDING, _SHIFTED, _SWING_LIFT, _ARMS, _PACE, _MOST_PACED) = range(20)
+ _STANDING, _SHIFTED, _SWING_LIFT, _ARMS, _PACE, _MOST_PACED, _STOPPING) = range(21)
 
 
 # ----- the tables, packed: per verb, a slice of a flat array (see frame.tables and FramePass) ------------------
@@ -673,6 +673,7 @@ def _creature(c, dt, flags, turns, hbox, buf, hb):  # pragma: no cover
     eased[c] = 1.0 - spring(1.0, 0.0, offset_since[c], offset_halflife[c], k_[_LN2]) if live else 1.0
     kinds[c, 0] = (not is_moving or not transitions[3][active[c]]) and not live  # one verb (player._step)
     kinds[c, 1] = not verbs[5][into[c] if is_moving else verb[c]]  # standing, or coming to stand (player._standing)
+    kinds[c, 2] = kinds[c, 1] and verbs[5][verb[c]]  # from a cycle: a stop (planted.plant)
     # The body carried by the held feet's slip in a blend (player._keep_feet).
     root[c, 0], root[c, 1], root[c, 2] = x1, z1, h1
     if has_shown and has_held_before:
@@ -957,7 +958,9 @@ def _plant(lo, hi, dt, outputs, planted, feet, start, k_, mix):  # pragma: no co
                 if gap > most:
                     further, most = i, gap
             shifted = flat_all and math.hypot(mx / n_l, mz / n_l) > k_[_SHIFTED]
-        far = k_[_STANDING] if standing else (k_[_REPLANT] if kinds[c, 0] else k_[_LEFT_BEHIND])
+        far = k_[_REPLANT] if kinds[c, 0] else k_[_LEFT_BEHIND]
+        if standing:  # (a stop: STOPPING)
+            far = k_[_STOPPING] if kinds[c, 2] else k_[_STANDING]
         down = 0  # standing, a foot steps only while every other is down (planted._others_down)
         for i in range(n_l):
             if mode[c, i] != FREE and not replanting[c, i]:

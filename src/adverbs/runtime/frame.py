@@ -142,7 +142,7 @@ def _constants() -> np.ndarray:
         planted.REPLANTED, planting.SWING_HALFLIFE, planting.LIFT_HALFLIFE, player.LANDS,
         planted.LEFT_BEHIND, planted.STEP_RISE, planted.STEP_DELAY, planted.STEP_LAND, graph_state.MIN_LOOP,
         planted.STANDING, planted.SHIFTED, planting.SWING_LIFT, graph_state.ARMS_BLEND, graph_state.PACE,
-        graph_state.MOST_PACED,
+        graph_state.MOST_PACED, planted.STOPPING,
     ])  # fmt: skip
 
 
@@ -188,7 +188,7 @@ class FramePass:
         # Which creatures play one verb, and which stand (GraphState.alone, .standing): one array, so the kernel's
         # outputs stay seven (an eighth array in them cost a tenth of a crowd's frame, 10,000 creatures 94 -> 105 ms;
         # why was not found).
-        self.kinds = np.zeros((c, 2), dtype=bool)
+        self.kinds = np.zeros((c, 3), dtype=bool)  # alone, standing, stopping (a cycle blending into a one-shot)
         self.alone, self.standing = self.kinds[:, 0], self.kinds[:, 1]
         self.events = np.zeros(c, dtype=np.int64)
         self.g_settle = np.zeros(c)
