@@ -101,27 +101,29 @@ def _settled(perf, graph, windows):
     and which of ``windows`` it is part of: ``(source, target, a, b, verbs, k)``.
 
     A transition's window runs on for half a second after it ends, where its landing settles, unless the next
-    transition starts first; the frames of that half second the next window takes are the earlier transition's
-    landing still, and are measured against both transitions' verbs (a window of their own, named as the later
-    one's). What a frame shows (a joint's speed, the root's acceleration) is measured part by part; what a span
-    shows over the whole window: the hips' range, and a toe's ways along the floor, each whole, charged to the parts
-    it goes on in (``low_travel(within=...)``; until session 58 the whole window's longest way was charged to every
-    part, so a stop's step landing in its half second counted against the gesture after it as well). (Every Bandai stop blends into the
-    whole stand, which is then at its end and past the start of its loop's region: the stand's loop into itself
-    starts the frame after the stop ends. The stop's trailing foot, let go once the other has landed, lands in it
-    0.2-0.3 s later, its knee at 230 deg/s where the stand's own legs turn at 10: against the stand alone, 22x.)"""
-    out, settles, last = [], 0, None
+    transition starts first; the frames of that half second later windows take are the earlier transition's landing
+    still, and are measured against its verbs as well (parts of their own, named as the later window's). Until
+    session 58 only the window just before was taken so: a Bandai stand loops into itself every 0.3 s, so a stop's
+    half second held the first of its loops and not the second, where a foot the stop re-placed landed (6.6x the
+    stand's own legs, the walk's own not counted). What a frame shows (a joint's speed, the root's acceleration) is
+    measured part by part; what a span shows over the whole window: the hips' range, and a toe's ways along the
+    floor, each whole, charged to the parts it goes on in (``low_travel(within=...)``; until session 58 the whole
+    window's longest way was charged to every part, so a stop's step landing in its half second counted against the
+    gesture after it as well). (Every Bandai stop blends into the whole stand, which is then at its end and past the
+    start of its loop's region: the stand's loop into itself starts the frame after the stop ends. The stop's
+    trailing foot, let go once the other has landed, lands in it 0.2-0.3 s later, its knee at 230 deg/s where the
+    stand's own legs turn at 10: against the stand alone, 22x.)"""
+    out, landings = [], []  # (the frame its half second ends, its verbs) of every window before
     for k, (s, t, a, b) in enumerate(windows):
-        if last is not None and a < settles:
-            split = min(settles, b)
-            out.append((s, t, a, split, {last[0], last[1]}, k))
-            a = split
-        if a < b:
-            out.append((s, t, a, b, set(), k))
-        end = a
-        while end < len(perf.active) and perf.active[end] >= 0 and perf.active[end] == perf.active[a]:
+        cuts = sorted({a, b} | {u for u, _ in landings if a < u < b})
+        for lo, hi in zip(cuts[:-1], cuts[1:]):
+            out.append((s, t, lo, hi, set().union(*(v for u, v in landings if u > lo)), k))
+        # (its own half second counted from where the one just before ends in it, if it does: as until session 58)
+        start = min(landings[-1][0], b) if landings and a < landings[-1][0] else a
+        end = start
+        while end < len(perf.active) and perf.active[end] >= 0 and perf.active[end] == perf.active[start]:
             end += 1
-        settles, last = end + int(FPS / 2), (s, t)
+        landings.append((end + int(FPS / 2), {s, t}))
     return out
 
 
@@ -629,15 +631,18 @@ def test_a_standing_foot_is_re_placed_only_far_off_or_with_the_body_off_both():
     assert far((SHIFTED + 0.01, 0.0), (-SHIFTED - 0.01, 0.0)) == [False, False]  # a wider stance: the body over it
 
 
-@pytest.mark.parametrize("seed", [306, 311, 323])
+@pytest.mark.parametrize("seed", [306, 311, 323, 418])
 def test_a_stop_leaves_the_stand_and_the_gestures_after_it_on_their_own_stance(bandai, seed):
     """A stop held its feet to 15 cm like any stand (``planted.STANDING``): the walk's last stance foot, 9-14 cm from
     where the stand has it at sad valences, stayed there through the stand and the gestures after it until their
     own sway took it past 15 cm, and it stepped in the middle of a gesture, the knee at 4-9x the stand's and the
     gesture's own legs (at these seeds, in an idle → reach: 8.9x, 6.5x and 4.2x). A stop now re-places
     a foot 9 cm off (``planted.STOPPING``): it steps as the stop ends, at the walk's pace, within the stop's half
-    second. Every standing window of these random scripts (a stand into a gesture, a gesture into the stand) turns
-    the legs no faster than 1.5x their verbs' own (each window's, and the stop's where it settles in it)."""
+    second. Seed 418's stop left a foot 14 cm off that was never flat as the planter took it (rolled 0.1-0.2 because
+    the stand's foot is a little higher there): held with its heel lifted through a bow, a stand and a reach, it
+    stepped as a guide began (2.8x); a standing foot is flat where the verbs hold it flat now. Every standing window
+    of these random scripts (a stand into a gesture, a gesture into the stand) turns the legs no faster than 1.5x
+    their verbs' own (each window's, and the stop's where it settles in it)."""
     from test_transitions import _own
 
     cues, adverbs = gesture_script(seed)

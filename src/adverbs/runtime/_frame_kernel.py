@@ -950,8 +950,8 @@ def _plant(lo, hi, dt, outputs, planted, feet, start, k_, mix):  # pragma: no co
         standing, shifted, further = kinds[c, 1], False, 0
         if standing:  # the body off its feet: every foot held flat, their mean offset over SHIFTED; the further one
             flat_all, mx, mz, most = True, 0.0, 0.0, -1.0
-            for i in range(n_l):
-                flat_all = flat_all and mode[c, i] == BALL and turn[c, i] == 0.0
+            for i in range(n_l):  # (standing, flat as the verbs hold it: planted.plant)
+                flat_all = flat_all and mode[c, i] == BALL and roll[c, i] == 0.0
                 mx += prev_free[c, i, 0] - target[c, i, 0]
                 mz += prev_free[c, i, 2] - target[c, i, 2]
                 gap = math.hypot(prev_free[c, i, 0] - target[c, i, 0], prev_free[c, i, 2] - target[c, i, 2])
@@ -966,7 +966,7 @@ def _plant(lo, hi, dt, outputs, planted, feet, start, k_, mix):  # pragma: no co
             if mode[c, i] != FREE and not replanting[c, i]:
                 down += 1
         for i in range(n_l):
-            if mode[c, i] == BALL and turn[c, i] == 0.0:
+            if mode[c, i] == BALL and (roll[c, i] == 0.0 if standing else turn[c, i] == 0.0):
                 gap = math.hypot(prev_free[c, i, 0] - target[c, i, 0], prev_free[c, i, 2] - target[c, i, 2])
                 if (gap > far or (shifted and i == further)) and (not standing or down - (not replanting[c, i]) == n_l - 1):
                     replanting[c, i] = True
