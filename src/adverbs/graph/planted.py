@@ -257,15 +257,16 @@ def _standing_far(
     has it at sad valences, was held there through the stand and the gestures after it, until their own sway took it
     past 15 cm and it stepped in the middle of a gesture, its knee at 4-9x the stand's own legs (the most of the
     random scripts' windows over a bound). Re-placed at 9 cm in a stop it steps as the stop ends, in the stop's half
-    second, at the walk's pace: the random scripts' windows over a bound, seeds 300-329, 17 -> 10 (legs 8 -> 4, hips
-    6 -> 2), 200-229 6 -> 6; held out (400-429, not used to choose 9 cm over 6 and 7.5) 10 -> 9.
+    second, at the walk's pace: the random scripts' windows over a bound (measured as then), seeds 300-329, 17 -> 10
+    (legs 8 -> 4, hips 6 -> 2), 200-229 6 -> 6; held out (400-429, not used to choose 9 cm over 6 and 7.5) 10 -> 9.
 
     ``flat`` (:func:`plant`): held as a ball with the verbs' roll nothing. It was the planter's roll, which also rolls
     a ball its verb raises over the level found for it (``FootPlanter``, ``STILL_DOWN``): a stop's foot 14-16 cm from
     where the stand has it, the stand's foot a little higher there, was rolled 0.1-0.2 and so never flat, held with
     its heel lifted 0.3 rad for the leg to reach it through a bow, a stand and a reach (8 s), and stepped as a guide
     began (2.8x the legs' own). Random scripts: 200-229 6 -> 6, 300-329 9 -> 9, 400-429 (where it was found) 8 -> 4;
-    seeds 500-529, used for neither change: 20 before the stop's 9 cm, 16 with it, 14 with this."""
+    seeds 500-529, used for neither change: 20 before the stop's 9 cm, 16 with it, 14 with this (the README counts
+    both in turn under today's measures)."""
     mean = away.mean(axis=1)
     shifted = flat.all(axis=1) & (np.hypot(mean[:, 0], mean[:, 2]) > SHIFTED)
     further = np.arange(gap.shape[1])[None, :] == gap.argmax(axis=1)[:, None]
