@@ -4,8 +4,9 @@ A walk (lands on the heel) and a run (lands on the ball) of the shipped specs, e
 adverb point (at the examples, between them and 25% past them), planted over two cycles on a flat floor, a
 flat floor at another level, a 10° slope and a bumpy height map; the holds given by generic time (a verb
 alone) or as phase masks with some holds switched off for a while (a verb graph's path: early releases and
-feet found down in mid-stance), with the examples' lifts eased in as under a decaying offset. Every state array, every target and wanted orientation, the root drop and
-the planted pose must agree to 1e-9 (modes and flags exactly), for a crowd in one planter and for one creature.
+feet found down in mid-stance), with the examples' lifts eased in as under a decaying offset. Every state array,
+every target and wanted orientation, the root drop and the planted pose must agree to 1e-9 (modes and flags
+exactly), for a crowd in one planter and for one creature.
 """
 
 from __future__ import annotations
