@@ -137,7 +137,7 @@ def _carry(state: GraphState, v: int, slot: int, rows: np.ndarray) -> np.ndarray
     kept = state.caches[(v, slot), "carry"]
     todo = rows[np.isnan(kept[rows])]
     if len(todo):
-        kept[todo] = state.graph.verbs[v].carry_limit(s.weights[todo])
+        kept[todo] = state.graph.verbs[v].carry_limit(s.weights[todo], s.keytimes[todo])
     return kept[rows]
 
 

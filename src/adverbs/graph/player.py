@@ -479,14 +479,14 @@ def carry_limits(state: GraphState, rows: np.ndarray) -> np.ndarray:
     """How fast the body of each creature of ``rows`` may change its velocity ``(n,)``, m/s², where it is carried
     (by its held feet in a blend of two verbs or under a decaying offset, or catching up with its verb after one:
     :func:`_keep_feet`): no faster than its verbs' own bodies do at its adverbs, the larger of the verb playing's
-    and the one being entered's. A verb's own is its examples' root accelerations through their cycle
-    (``Verb.root_acceleration_profile``) blended with the creature's weights at each generic time, at its fastest,
-    kept within the examples' fastest (``Verb.root_accelerations``, at least ``SETTLING``, 0.1 m/s²: a stand in place
-    has none of its own), a bow at 0.6-0.8 m/s², a walk at 3-18. Carried at a walk's pace (4 m/s², the limit
-    before), an interruption jumped a standing body at 2-7x its verbs' own; at the examples' fastest blended (the
-    limit until session 43), a reach's start cut short turned the body at 0.32 m/s², the reach's own at its adverbs
-    0.15. It depends on the adverbs alone, so each verb's is kept once worked out (``Verb.carry_limit``,
-    ``clocks._carry``) until they move: the compiled frame blended its 64 generic times of every example every frame."""
+    and the one being entered's. A verb's own is how fast the root velocities it plays at the creature's adverbs
+    (its examples' ``Verb.root_velocity_samples`` blended with the creature's weights) change over a frame's step of
+    its clock, turned with its heading, at its fastest: at least ``SETTLING``, 0.1 m/s² (a stand in place has none
+    of its own), at most its examples' fastest (``Verb.root_accelerations``); a bow's 0.6-0.8 m/s², a walk's 2-12.
+    Carried at a walk's pace (4 m/s², the limit before), an interruption jumped a standing body at 2-7x its verbs'
+    own; at the examples' fastest blended (the limit until session 43), a reach's start cut short turned the body at
+    0.32 m/s², the reach's own at its adverbs 0.15. It depends on the adverbs alone, so each verb's is kept once
+    worked out (``Verb.carry_limit``, ``clocks._carry``) until they move."""
     out = np.zeros(len(rows))
     for slot, verbs in ((0, state.verb[rows]), (1, state.into[rows])):
         for v in np.unique(verbs[verbs >= 0]):

@@ -45,7 +45,7 @@ Arguments come in tuples (``frame.FramePass`` lays them out once):
   (V, 4)``, ``parent_pos (V, 3)``), the holds (``opens``, ``cols`` in the graph's feet, ``has_holds (V,)``) and
   the examples' foot lifts (``Verb.lift_table`` ``(3, E, S + 1, L)``: flat, offsets, shapes ``(V, 3)`` of
   ``(E, S + 1, L)``), the examples' fastest root accelerations (``Verb.root_accelerations`` ``(E,)``: flat,
-  offsets) and their root accelerations through their cycle (``Verb.root_acceleration_profile`` ``(E, S, 3)``: flat,
+  offsets) and their root velocities through their cycle (``Verb.root_velocity_samples`` ``(E, S, 3)``: flat,
   offsets).
 * ``transitions``: ``regions (T, 4)`` (source start and end, target start and end), ``target (T,)``,
   ``inertial (T,)``, ``between (T,)`` (from one verb to another), ``arms (T,)`` (how it carries the arms on:
@@ -80,7 +80,7 @@ STARTED, FINISHED = 1, 2  # events: a transition started, or finished, this fram
 FREE, BALL = 0, 2  # planting.FREE, planting.BALL
 # Where each constant sits in ``k_`` (see frame.FramePass).
 (_LATE, _MIN_DURATION, _INERTIAL, _LN2, _REPLANT, _REPLANTED, _SWING, _LIFT, _LANDS, _LEFT_BEHIND, _RISE, _DELAY, _LAND, _MIN_LOOP,
- _STANDING, _SHIFTED, _SWING_LIFT, _ARMS, _PACE, _MOST_PACED, _STOPPING) = range(21)
+ _STANDING, _SHIFTED, _SWING_LIFT, _ARMS, _PACE, _MOST_PACED, _STOPPING, _SETTLING, _FRAME) = range(23)
 
 
 # ----- the tables, packed: per verb, a slice of a flat array (see frame.tables and FramePass) ------------------
@@ -500,12 +500,12 @@ def _phases(v, slot, c, g, verbs, caches, held, roll, swing, lifts):  # pragma: 
 
 
 @njit(cache=True, inline="always")
-def _carry_limit(c, verbs, caches, state):  # pragma: no cover - compiled
+def _carry_limit(c, verbs, caches, state, k_):  # pragma: no cover - compiled
     """``player.carry_limits`` of creature ``c``: the larger of its verbs' own fastest root accelerations at its
     adverbs, the verb playing's and the one being entered's. Each is kept in the carry cache (``clocks._carry``),
-    NaN since the adverbs last moved until a frame needs it: then its examples' root accelerations through their
-    cycle blended with its weights at each generic time, at their fastest, within the examples' fastest
-    (``Verb.carry_limit``), worked out here and kept."""
+    NaN since the adverbs last moved until a frame needs it: then worked out here and kept (``Verb.carry_limit``):
+    its examples' root velocities blended with its weights, their change over a frame's step of its clock with the
+    heading's turn meanwhile, at their fastest, at least ``SETTLING``, at most the examples' fastest."""
     out = 0.0
     for slot in range(2):
         v = state[0][c] if slot == 0 else state[2][c]
@@ -514,25 +514,56 @@ def _carry_limit(c, verbs, caches, state):  # pragma: no cover - compiled
         kept = _columns(caches, slot, v, 5)
         if math.isnan(kept[c, 0]):
             acc = _part(verbs[27], verbs[28], v)
-            profile = _part(verbs[29], verbs[30], v)
-            w = _columns(caches, slot, v, 0)[c]
-            n_e = acc.shape[0]
-            n_s = profile.shape[0] // (3 * n_e)
-            lo, hi = np.inf, -np.inf
-            for e in range(n_e):
-                lo, hi = min(lo, acc[e]), max(hi, acc[e])
-            own = 0.0
-            for s in range(n_s):
-                ax, az, turn = 0.0, 0.0, 0.0
-                for e in range(n_e):
-                    k = 3 * (e * n_s + s)
-                    ax += w[e] * profile[k]
-                    az += w[e] * profile[k + 1]
-                    turn += w[e] * profile[k + 2]
-                own = max(own, math.hypot(ax, az) + max(turn, 0.0))
-            kept[c, 0] = min(max(own, lo), hi)
+            hi = -np.inf
+            for e in range(acc.shape[0]):
+                hi = max(hi, acc[e])
+            kept[c, 0] = min(max(_fastest(c, v, slot, verbs, caches, k_[_FRAME]), k_[_SETTLING]), hi)
         out = max(out, kept[c, 0])
     return out
+
+
+@njit(cache=True, inline="always")
+def _velocity(samples, w, n_e, n_s, s):  # pragma: no cover - compiled
+    """The root velocities ``(vx, vz, turn)`` at sample ``s`` of a verb's ``Verb.root_velocity_samples`` (flat) blended
+    with weights ``w``."""
+    vx, vz, turn = 0.0, 0.0, 0.0
+    for e in range(n_e):
+        k = 3 * (e * n_s + s)
+        vx += w[e] * samples[k]
+        vz += w[e] * samples[k + 1]
+        turn += w[e] * samples[k + 2]
+    return vx, vz, turn
+
+
+@njit(cache=True, _nrt=False)
+def _fastest(c, v, slot, verbs, caches, frame):  # pragma: no cover - compiled
+    """``tables._fastest`` of creature ``c`` in verb ``v`` (slot): its root velocities' fastest change over ``frame``
+    seconds of its clock (the velocities there linear between the samples' clock times), the later turned by the
+    heading's change meanwhile. Worked out when its adverbs move (not inlined)."""
+    samples = _part(verbs[29], verbs[30], v)
+    w = _columns(caches, slot, v, 0)[c]
+    n_e = _part(verbs[27], verbs[28], v).shape[0]
+    n_s = samples.shape[0] // (3 * n_e)
+    last = n_s - 1
+    end = _clock_of(1.0, v, slot, c, verbs, caches)
+    j, t0, t1 = 0, _clock_of(0.0, v, slot, c, verbs, caches), _clock_of(1.0 / last, v, slot, c, verbs, caches)
+    most = 0.0
+    for s in range(n_s):
+        later = _clock_of(s / last, v, slot, c, verbs, caches) + frame
+        if later > end:
+            break
+        while j < last - 1 and t1 <= later:  # (np.interp's interval: t_j <= later < t_j+1, the last closed)
+            j += 1
+            t0, t1 = t1, _clock_of((j + 1) / last, v, slot, c, verbs, caches)
+        ax, az, at = _velocity(samples, w, n_e, n_s, j)
+        bx, bz, bt = _velocity(samples, w, n_e, n_s, j + 1)
+        u = (later - t0) / (t1 - t0)
+        vx, vz, turn = ax + u * (bx - ax), az + u * (bz - az), at + u * (bt - at)
+        nx, nz, nt = _velocity(samples, w, n_e, n_s, s)
+        angle = 0.5 * (nt + turn) * frame
+        co, si = math.cos(angle), math.sin(angle)
+        most = max(most, math.hypot(vx * co + vz * si - nx, vz * co - vx * si - nz))
+    return most / frame
 
 
 @njit(cache=True, _nrt=False)
@@ -691,7 +722,7 @@ def _creature(c, dt, flags, turns, hbox, buf, hb):  # pragma: no cover
                 hi = step_speed
             elif not alone:
                 fade = spring(1.0, 0.0, offset_since[c], offset_halflife[c], k_[_LN2])
-            change = _carry_limit(c, verbs, caches, state)
+            change = _carry_limit(c, verbs, caches, state, k_)
             lagging[c] = keep_feet_row(
                 parents, feet, skeleton[6], wts, rot[c : c + 1], trans[c : c + 1], shown_rot[c : c + 1], shown_trans[c : c + 1], body,
                 above_inv, root[c], fk_now_pos, fk_now_rot, fk_was_pos, fk_was_rot, x0, z0, h0, shown_vel[c, 0],

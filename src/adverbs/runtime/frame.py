@@ -39,6 +39,7 @@ from ..graph.planted import GraphFeet, know_levels
 from ..graph.state import GraphState, sync_head
 from ..graph.structure import Graph
 from ..feet import planter as planting
+from ..verb import tables as verb_tables
 from ..verb.sampling import SamplingState
 from . import _frame_kernel as kernel
 from ._borrow_kernel import Held, hold
@@ -110,7 +111,7 @@ def tables(graph: Graph) -> Tables:
         *packed([v.lift_table if v.holds and v.cyclic else np.zeros(0) for v in vs]),
         np.array([v.lift_table.shape[1:] if v.holds and v.cyclic else (0, 2, 0) for v in vs], dtype=np.int64),
         *packed([v.root_accelerations for v in vs]),
-        *packed([v.root_acceleration_profile for v in vs]),
+        *packed([v.root_velocity_samples for v in vs]),
         *packed([v.joint_speed_profile for v in vs]),
         *packed(list(graph.part_speeds)),
         np.array([v.joint_speed_profile.shape for v in vs], dtype=np.int64),
@@ -142,7 +143,7 @@ def _constants() -> np.ndarray:
         planted.REPLANTED, planting.SWING_HALFLIFE, planting.LIFT_HALFLIFE, player.LANDS,
         planted.LEFT_BEHIND, planted.STEP_RISE, planted.STEP_DELAY, planted.STEP_LAND, graph_state.MIN_LOOP,
         planted.STANDING, planted.SHIFTED, planting.SWING_LIFT, graph_state.ARMS_BLEND, graph_state.PACE,
-        graph_state.MOST_PACED, planted.STOPPING,
+        graph_state.MOST_PACED, planted.STOPPING, verb_tables.SETTLING, verb_tables.FRAME,
     ])  # fmt: skip
 
 

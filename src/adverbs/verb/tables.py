@@ -89,7 +89,8 @@ LEVEL_SAMPLES = 16  # Verb.contact_levels: poses sampled evenly over each foot's
 LEVEL_BLOCK = 256  # ... for this many creatures at a time
 LEVELS_KEPT = 4096  # single points' levels a verb keeps (forgotten all at once past this)
 SETTLING = 0.1  # m/s²: the least root acceleration a verb's examples are taken to have (a stand's sway had 0.1-0.2)
-ACCELERATION_SAMPLES = 65  # Verb.root_acceleration_profile: samples of each example's root velocities over its generic time
+ACCELERATION_SAMPLES = 129  # Verb.root_velocity_samples: samples of each example's root velocities over its generic time
+FRAME = 1.0 / 30.0  # seconds: the step over which Verb.carry_limit reads a verb's root acceleration, a frame's
 SPEED_SAMPLES = 65  # Verb.joint_speed_profile: each example's poses over its generic time
 
 
@@ -396,24 +397,15 @@ class Verb:
         return own.min(axis=-1) - self.floor - heights
 
     @cached_property
-    def root_acceleration_profile(self) -> np.ndarray:
-        """Each example's body root, how it speeds up, slows down and turns through its cycle ``(E, S, 3)``: at the
-        ``S = ACCELERATION_SAMPLES − 1`` midpoints of evenly spaced generic times, the change of its fitted root
-        velocities (``root.vx``, ``root.vz``) per second of its own clock, and ``|ω| |v|`` (the heading's rate times
-        the speed: what turning adds, whatever its sense). Blended with a creature's weights at the same generic
-        times, it is the verb's own at the creature's adverbs (:func:`adverbs.graph.player.carry_limits`).
+    def root_velocity_samples(self) -> np.ndarray:
+        """Each example's fitted root velocities ``(E, S, 3)`` (``root.vx``, ``root.vz``, ``root.turn``: sideways,
+        forward, the heading's rate) at ``S = ACCELERATION_SAMPLES`` evenly spaced generic times from 0 to 1. Blended
+        with a creature's weights they are its verb's root velocities there, exactly (the DOFs are linear in the
+        weights): what :meth:`carry_limit` differentiates.
 
         Derived from the tables alone, computed on first use and kept (it never changes).
         """
-        samples = self._example_samples(ACCELERATION_SAMPLES)
-        generic = np.linspace(0.0, 1.0, ACCELERATION_SAMPLES)
-        out = np.empty((len(samples), ACCELERATION_SAMPLES - 1, 3))
-        for e, dofs in enumerate(samples):
-            step = np.diff(timewarp.clock_time(generic, self.keytimes_table[e], self.generic_keytimes))
-            out[e, :, :2] = np.diff(dofs[:, :2], axis=0) / step[:, None]
-            mid = 0.5 * (dofs[1:, :3] + dofs[:-1, :3])
-            out[e, :, 2] = np.abs(mid[:, 2]) * np.hypot(mid[:, 0], mid[:, 1])
-        return _frozen(out)
+        return _frozen(np.ascontiguousarray(self._example_samples(ACCELERATION_SAMPLES)[..., :3]))
 
     @cached_property
     def joint_speed_profile(self) -> np.ndarray:
@@ -435,24 +427,36 @@ class Verb:
     @cached_property
     def root_accelerations(self) -> np.ndarray:
         """Each example's fastest horizontal acceleration of its body root ``(E,)``, m/s², over its cycle in its own
-        clock time: ``|v'| + |ω| |v|`` of :attr:`root_acceleration_profile` at its fastest, at least ``SETTLING``. A
-        walk's are 3-18 m/s². The carry's limit at a creature's adverbs is kept within these, so a body carried into a
-        verb that does not travel (a stand in place: none of its own) still comes to rest: with a limit of nothing, a
-        stop's last 4 cm/s went on through the stand's loop and ended in one frame (1.3 m/s²)."""
-        p = self.root_acceleration_profile
-        return _frozen(np.maximum(np.max(np.hypot(p[..., 0], p[..., 1]) + p[..., 2], axis=1), SETTLING))
+        clock time, as a frame shows it (:meth:`carry_limit` at its own weight alone), at least ``SETTLING``. A
+        walk's are 2-12 m/s². The carry's limit at a creature's adverbs is at most the fastest of these, and at least
+        ``SETTLING``, so a body carried into a verb that does not travel (a stand in place: none of its own) still
+        comes to rest: with a limit of nothing, a stop's last 4 cm/s went on through the stand's loop and ended in one
+        frame (1.3 m/s²). (It was kept at least the slowest of these too: a run whose examples speed up at different
+        times, blended, speeds up less than any of them, 5.9 m/s² at one point where the slowest example's is 8.1.)"""
+        one = np.eye(len(self.examples))
+        return _frozen(np.maximum(_fastest(self, one, self.keytimes_table), SETTLING))
 
-    def carry_limit(self, weights: np.ndarray) -> np.ndarray:
-        """The verb's own fastest root acceleration ``(...,)`` at cardinal ``weights (..., E)``: its examples'
-        :attr:`root_acceleration_profile` blended with the weights at each generic time, at its fastest, kept within
-        the examples' fastest (:attr:`root_accelerations`). What a carried body's velocity may change by in a second
-        (:func:`adverbs.graph.player.carry_limits`); it changes only with the weights, so a graph keeps each
-        creature's once worked out, until its adverbs move (``clocks._carry``)."""
-        acc, profile = self.root_accelerations, self.root_acceleration_profile
+    def carry_limit(self, weights: np.ndarray, keytimes: np.ndarray | None = None) -> np.ndarray:
+        """The verb's own fastest root acceleration ``(...,)`` at cardinal ``weights (..., E)`` (and the ``keytimes
+        (..., N)`` a sampling state keeps there; by default :meth:`keytimes`): the root velocities it plays there (its
+        examples' :attr:`root_velocity_samples` blended), their change over a frame's step of its clock
+        (:data:`FRAME`) with the heading's turn meanwhile (the body's acceleration in the world, as a frame shows
+        it), at its fastest, at least ``SETTLING`` and at most the examples' fastest (:attr:`root_accelerations`). What a carried body's
+        velocity may change by in a second (:func:`adverbs.graph.player.carry_limits`); it changes only with the
+        weights, so a graph keeps each creature's once worked out, until its adverbs move (``clocks._carry``).
+
+        It was each example's acceleration in its own clock, ``|v'| + |ω| |v|`` at 64 points of its cycle,
+        blended: examples speeding up at different times, the turn's part added whatever its sense, and peaks
+        shorter than a frame put a walk's limit up to 1.9x what the walk shows played at the point and a run's
+        1.6x (0.95-1.1x and 1.0-1.25x now), so a start cut short and a walk → run carried the body at 1.5-1.6x
+        their own."""
+        acc = self.root_accelerations
         w = np.asarray(weights, dtype=float)[..., : len(acc)]
-        blended = np.einsum("...e,esk->...sk", w, profile)  # einsum's own loop: the same bits alone or in a crowd
-        own = np.max(np.hypot(blended[..., 0], blended[..., 1]) + np.maximum(blended[..., 2], 0.0), axis=-1)
-        return np.clip(own, acc.min(), acc.max())
+        if keytimes is None:  # row by row: a matrix product of many rows need not round as one row's does
+            flat = w.reshape(-1, w.shape[-1])
+            keytimes = np.array([self.keytimes(None, row) for row in flat]).reshape(w.shape[:-1] + (-1,))
+        keys = np.asarray(keytimes, dtype=float)
+        return np.clip(_fastest(self, w, keys), SETTLING, acc.max())
 
     def point(self, values: dict[str, float] | Sequence[float] | np.ndarray) -> np.ndarray:
         """An adverb point ``(A,)`` from a mapping of adverb names (missing ones: the examples' mean) or a sequence."""
@@ -641,3 +645,26 @@ def follows(adverbs: Sequence[Adverb], encoding: DofEncoding) -> np.ndarray:
             return np.ones(d)
     prefixes = tuple(f"{skel.names[j]}." for j in asked)
     return np.array([1.0 if n.startswith(prefixes) else 0.0 for n in encoding.names])
+
+
+def _fastest(verb: Verb, weights: np.ndarray, keytimes: np.ndarray) -> np.ndarray:
+    """The fastest root acceleration ``(...,)`` of ``verb`` played at ``weights (..., E)`` and ``keytimes (..., N)``
+    over a frame (see :meth:`Verb.carry_limit`): from each of its :attr:`~Verb.root_velocity_samples`' generic times
+    to :data:`FRAME` seconds of its clock later (the velocities there linear between the samples' clock times), the
+    later velocity turned by the heading's change meanwhile (at the two velocities' mean rate)."""
+    v = np.einsum("...e,esk->...sk", weights, verb.root_velocity_samples)  # einsum's own loop: alone = in a crowd
+    flat_v, flat_k = v.reshape(-1, *v.shape[-2:]), np.asarray(keytimes, dtype=float).reshape(-1, keytimes.shape[-1])
+    generic = np.linspace(0.0, 1.0, ACCELERATION_SAMPLES)
+    out = np.zeros(len(flat_v))
+    for i, (vel, keys) in enumerate(zip(flat_v, flat_k)):
+        clock = timewarp.clock_time(generic, keys, verb.generic_keytimes)
+        later = clock + FRAME
+        later = later[later <= clock[-1]]
+        if not len(later):
+            continue
+        now = vel[: len(later)]
+        vx, vz, turn = (np.interp(later, clock, vel[:, k]) for k in range(3))
+        angle = 0.5 * (now[:, 2] + turn) * FRAME
+        c, s = np.cos(angle), np.sin(angle)
+        out[i] = np.max(np.hypot(vx * c + vz * s - now[:, 0], vz * c - vx * s - now[:, 1])) / FRAME
+    return out.reshape(v.shape[:-2])
