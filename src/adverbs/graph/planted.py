@@ -52,6 +52,7 @@ class GraphFeet:
     leveled: np.ndarray  # (V,): which verbs have levels of their own (a cycle that holds feet: Verb.contact_levels)
     targets: np.ndarray  # (T,): each transition's target verb
     cyclic: np.ndarray  # (V,): which verbs are cycles (a blend from one into a one-shot is a stop)
+    pending: np.ndarray  # (C, L): feet a stop would have re-placed had the other been down (stepping after it)
     looked: tuple = ()  # (state, GraphState.head_version) when know_levels last looked
 
     @property
@@ -89,7 +90,7 @@ def planter(graph: Graph, creatures: int = 1, floor: Floor | None = None) -> Gra
         FootPlanter(holding[0], creatures, floor), np.zeros(shape, dtype=bool), np.full((*shape, len(graph.verbs)), np.nan),
         np.zeros(shape), np.full(shape, np.nan), np.zeros((creatures, len(graph.verbs)), dtype=bool),
         np.array([bool(v.cyclic and v.holds) for v in graph.verbs]),
-        np.array([t.target for t in graph.transitions], dtype=np.int64), graph.cyclic,
+        np.array([t.target for t in graph.transitions], dtype=np.int64), graph.cyclic, np.zeros(shape, dtype=bool),
     )  # fmt: skip
 
 
@@ -162,7 +163,10 @@ def plant(feet: GraphFeet, frame: Frame, dt: float, alone: np.ndarray, standing:
     Re-placed at 6 or 12 cm, a stand after a gesture or a stop stepped, its knee at 200-320 deg/s where the stand's
     own turns at 10-60. Held where they are, the legs reach them; a foot out of its leg's reach is re-placed at any
     distance (``spent``, below). Standing, a foot is re-placed only while every other foot is down
-    (:func:`_others_down`)."""
+    (:func:`_others_down`); a stop's foot ``STOPPING`` off that the stop could not re-place (the other foot not yet
+    down, or the walk's fading weight still rolling it a little) is kept ``pending`` and steps once it can, while the
+    creature stands and it is still that far: parked 11-12 cm off, it stepped mid-reach as the reach's stance took it
+    past 15 cm (5.6-7.7x the legs' own)."""
     p = feet.planter
     held = frame.held & ~feet.replanting
     swinging = np.where(frame.held, 0.0, frame.swing)
@@ -193,8 +197,13 @@ def plant(feet: GraphFeet, frame: Frame, dt: float, alone: np.ndarray, standing:
         limit = np.where(stopping, STOPPING, STANDING)[:, None]
         # Standing, a foot the verbs hold flat is flat, whatever the planter's own roll (a ball raised over its level).
         level = (p.mode == BALL) & (frame.roll == 0.0)
-        steps = _standing_far(level, away, gap, limit) & _others_down(p.mode, feet.replanting)
+        # A stop's foot STOPPING off, held flat by the planter, steps though the walk's fading weight still rolls it
+        # a little, once the other is down, in the stop or after it while the creature stands and it is that far.
+        wants = (p.mode == BALL) & (gap > STOPPING)
+        feet.pending[:] = np.where(stopping[:, None], wants, feet.pending & wants & standing[:, None])
+        steps = (_standing_far(level, away, gap, limit) | feet.pending) & _others_down(p.mode, feet.replanting)
         feet.replanting |= np.where(standing[:, None], steps, far)
+        feet.pending &= ~feet.replanting
     else:
         feet.replanting |= far
     return out

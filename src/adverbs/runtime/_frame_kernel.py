@@ -912,7 +912,7 @@ def _plant(lo, hi, dt, outputs, planted, feet, start, k_, mix):  # pragma: no co
     planter's held arrays, borrowed (:func:`_frame` takes them out of their ``Held``: not without counting)."""
     held, roll, swing, kinds, lifts, eased = outputs[0], outputs[1], outputs[2], outputs[3], outputs[6], outputs[7]
     (parents, generic, inside, dts, times, cyclic, verb_floor, tips, root, legs, constants, floor, st, chain,
-     ik_params, scratch, drop, residual, replanting, levels, hover0, level0) = feet  # fmt: skip
+     ik_params, scratch, drop, residual, replanting, levels, hover0, level0, pending) = feet  # fmt: skip
     rot, trans = planted
     n_l = held.shape[1]
     mode, offset, offset_vel, since, settle, hover = st[0], st[4], st[5], st[6], st[11], st[12]
@@ -997,10 +997,17 @@ def _plant(lo, hi, dt, outputs, planted, feet, start, k_, mix):  # pragma: no co
             if mode[c, i] != FREE and not replanting[c, i]:
                 down += 1
         for i in range(n_l):
-            if mode[c, i] == BALL and (roll[c, i] == 0.0 if standing else turn[c, i] == 0.0):
-                gap = math.hypot(prev_free[c, i, 0] - target[c, i, 0], prev_free[c, i, 2] - target[c, i, 2])
-                if (gap > far or (shifted and i == further)) and (not standing or down - (not replanting[c, i]) == n_l - 1):
+            gap = math.hypot(prev_free[c, i, 0] - target[c, i, 0], prev_free[c, i, 2] - target[c, i, 2])
+            # A stop's foot STOPPING off, held flat by the planter, steps though the walk still rolls it a little,
+            # once the other is down, in the stop or after it while standing and that far (planted.plant).
+            wants = mode[c, i] == BALL and gap > k_[_STOPPING]
+            pending[c, i] = wants if kinds[c, 2] else (pending[c, i] and wants and standing)
+            flat = mode[c, i] == BALL and (roll[c, i] == 0.0 if standing else turn[c, i] == 0.0)
+            if (flat and (gap > far or (shifted and i == further))) or (standing and pending[c, i]):
+                if not standing or down - (not replanting[c, i]) == n_l - 1:
                     replanting[c, i] = True
+            if replanting[c, i]:
+                pending[c, i] = False
     return finite
 
 

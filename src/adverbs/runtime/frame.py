@@ -381,7 +381,7 @@ class FramePass:
         p = feet.planter
         comp = p._compiled
         times, state = comp._times(), comp._state()
-        key = (times, feet.replanting, feet.levels, feet.hover0, feet.level0, *state)
+        key = (times, feet.replanting, feet.levels, feet.hover0, feet.level0, feet.pending, *state)
         if self._feet_key is not None and all(map(operator.is_, key, self._feet_key)):
             return self._feet_boxed
         self._feet_key = key
@@ -389,6 +389,7 @@ class FramePass:
             comp.parents, comp.no_generic, self._inside, comp.dt, times, bool(p.verb.cyclic), float(p.verb.floor),
             comp.tips, comp.root, comp.legs, comp.constants, comp.floor, state, comp.chain, comp.ik_params,
             self._ik_out, self._drop, self._residual, feet.replanting, feet.levels, feet.hover0, feet.level0,
+            feet.pending,
         ))  # fmt: skip
         return self._feet_boxed
 
