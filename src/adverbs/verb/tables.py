@@ -441,15 +441,16 @@ class Verb:
         (..., N)`` a sampling state keeps there; by default :meth:`keytimes`): the root velocities it plays there (its
         examples' :attr:`root_velocity_samples` blended), their change over a frame's step of its clock
         (:data:`FRAME`) with the heading's turn meanwhile (the body's acceleration in the world, as a frame shows
-        it), at its fastest, at least ``SETTLING`` and at most the examples' fastest (:attr:`root_accelerations`). What a carried body's
-        velocity may change by in a second (:func:`adverbs.graph.player.carry_limits`); it changes only with the
-        weights, so a graph keeps each creature's once worked out, until its adverbs move (``clocks._carry``).
+        it), at its fastest, at least ``SETTLING`` and at most the examples' fastest (:attr:`root_accelerations`).
+        What a carried body's velocity may change by in a second (:func:`adverbs.graph.player.carry_limits`); it
+        changes only with the weights, so a graph keeps each creature's once worked out, until its adverbs move
+        (``clocks._carry``).
 
         It was each example's acceleration in its own clock, ``|v'| + |ω| |v|`` at 64 points of its cycle,
         blended: examples speeding up at different times, the turn's part added whatever its sense, and peaks
         shorter than a frame put a walk's limit up to 1.9x what the walk shows played at the point and a run's
-        1.6x (0.95-1.1x and 1.0-1.25x now), so a start cut short and a walk → run carried the body at 1.5-1.6x
-        their own."""
+        1.6x (now at most 1.09x at 24 random points: ``tests/test_edges.py``), so a start cut short and a walk → run
+        carried the body at 1.5-1.6x their own."""
         acc = self.root_accelerations
         w = np.asarray(weights, dtype=float)[..., : len(acc)]
         if keytimes is None:  # row by row: a matrix product of many rows need not round as one row's does
