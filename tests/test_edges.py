@@ -513,8 +513,8 @@ def test_a_stop_turned_back_into_the_walk_at_once_keeps_the_arms_on(bandai, seed
 def test_a_standing_body_carried_by_its_feet_speeds_up_no_harder_than_its_verbs(bandai, seed):
     """Under the decaying offset an interruption leaves, the body carried by its held feet changed its velocity at up
     to 4 m/s², a walk's pace: a stand cut short into a bow, a reach or a wave jumped the body at 1.6-7x its verbs' own
-    (a stand sways at 0.1-0.2 m/s², a bow at 0.6-0.8). Its limit is now its verbs' own, the examples' fastest root
-    accelerations blended at its adverbs (``player.carry_limits``), held whether or not a foot is: a carry that ended
+    (a stand sways at 0.1-0.2 m/s², a bow at 0.6-0.8). Its limit is now its verbs' own at its adverbs
+    (``player.carry_limits``, ``Verb.carry_limit``), held whether or not a foot is: a carry that ended
     (its feet let go) had put the body back on its own velocity in one frame. Random gesture scripts (of 30 tried,
     these broke the bound by the most, at 6.9, 4.8 and 7.0x): no transition between standing verbs accelerates the
     body root more than 1.5x its verbs' own."""

@@ -197,8 +197,8 @@ def plant(feet: GraphFeet, frame: Frame, dt: float, alone: np.ndarray, standing:
         limit = np.where(stopping, STOPPING, STANDING)[:, None]
         # Standing, a foot the verbs hold flat is flat, whatever the planter's own roll (a ball raised over its level).
         level = (p.mode == BALL) & (frame.roll == 0.0)
-        # A stop's foot STOPPING off, held flat by the planter, steps though the walk's fading weight still rolls it
-        # a little, once the other is down, in the stop or after it while the creature stands and it is that far.
+        # A stop's foot STOPPING off, held down by the planter (BALL), steps though the walk's fading weight still
+        # rolls it a little, once the other is down, in the stop or after it while the creature stands that far off.
         wants = (p.mode == BALL) & (gap > STOPPING)
         feet.pending[:] = np.where(stopping[:, None], wants, feet.pending & wants & standing[:, None])
         steps = (_standing_far(level, away, gap, limit) | feet.pending) & _others_down(p.mode, feet.replanting)

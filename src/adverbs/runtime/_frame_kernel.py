@@ -998,8 +998,8 @@ def _plant(lo, hi, dt, outputs, planted, feet, start, k_, mix):  # pragma: no co
                 down += 1
         for i in range(n_l):
             gap = math.hypot(prev_free[c, i, 0] - target[c, i, 0], prev_free[c, i, 2] - target[c, i, 2])
-            # A stop's foot STOPPING off, held flat by the planter, steps though the walk still rolls it a little,
-            # once the other is down, in the stop or after it while standing and that far (planted.plant).
+            # A stop's foot STOPPING off, held down by the planter (BALL), steps though the walk still rolls it a
+            # little, once the other is down, in the stop or after it while standing that far off (planted.plant).
             wants = mode[c, i] == BALL and gap > k_[_STOPPING]
             pending[c, i] = wants if kinds[c, 2] else (pending[c, i] and wants and standing)
             flat = mode[c, i] == BALL and (roll[c, i] == 0.0 if standing else turn[c, i] == 0.0)

@@ -652,12 +652,14 @@ def _fastest(verb: Verb, weights: np.ndarray, keytimes: np.ndarray) -> np.ndarra
     """The fastest root acceleration ``(...,)`` of ``verb`` played at ``weights (..., E)`` and ``keytimes (..., N)``
     over a frame (see :meth:`Verb.carry_limit`): from each of its :attr:`~Verb.root_velocity_samples`' generic times
     to :data:`FRAME` seconds of its clock later (the velocities there linear between the samples' clock times), the
-    later velocity turned by the heading's change meanwhile (at the two velocities' mean rate)."""
+    later velocity turned by the heading's change meanwhile (at the two velocities' mean rate). Its last frame's
+    worth of clock is not a start: a cycle's change across its seam into the next (which its loop's blend
+    shows) is not read."""
     v = np.einsum("...e,esk->...sk", weights, verb.root_velocity_samples)  # einsum's own loop: alone = in a crowd
     flat_v, flat_k = v.reshape(-1, *v.shape[-2:]), np.asarray(keytimes, dtype=float).reshape(-1, keytimes.shape[-1])
     generic = np.linspace(0.0, 1.0, ACCELERATION_SAMPLES)
     out = np.zeros(len(flat_v))
-    for i, (vel, keys) in enumerate(zip(flat_v, flat_k)):
+    for i, (vel, keys) in enumerate(zip(flat_v, flat_k, strict=True)):
         clock = timewarp.clock_time(generic, keys, verb.generic_keytimes)
         later = clock + FRAME
         later = later[later <= clock[-1]]
