@@ -164,8 +164,8 @@ def plant(feet: GraphFeet, frame: Frame, dt: float, alone: np.ndarray, standing:
     own turns at 10-60. Held where they are, the legs reach them; a foot out of its leg's reach is re-placed at any
     distance (``spent``, below). Standing, a foot is re-placed only while every other foot is down
     (:func:`_others_down`); a stop's foot ``STOPPING`` off that the stop could not re-place (the other foot not yet
-    down, or the walk's fading weight still rolling it a little) is kept ``pending`` and steps once it can, while the
-    creature stands and it is still that far: parked 11-12 cm off, it stepped mid-reach as the reach's stance took it
+    down, or the walk's fading weight still rolling it a little) is kept ``pending`` and steps once it can, in the
+    stop or, past it, where the verbs hold it flat, while the creature stands and it is still that far: parked 11-12 cm off, it stepped mid-reach as the reach's stance took it
     past 15 cm (5.6-7.7x the legs' own)."""
     p = feet.planter
     held = frame.held & ~feet.replanting
@@ -201,7 +201,8 @@ def plant(feet: GraphFeet, frame: Frame, dt: float, alone: np.ndarray, standing:
         # rolls it a little, once the other is down, in the stop or after it while the creature stands that far off.
         wants = (p.mode == BALL) & (gap > STOPPING)
         feet.pending[:] = np.where(stopping[:, None], wants, feet.pending & wants & standing[:, None])
-        steps = (_standing_far(level, away, gap, limit) | feet.pending) & _others_down(p.mode, feet.replanting)
+        waited = feet.pending & (level | stopping[:, None])  # (past the stop, only where the verbs hold it flat)
+        steps = (_standing_far(level, away, gap, limit) | waited) & _others_down(p.mode, feet.replanting)
         feet.replanting |= np.where(standing[:, None], steps, far)
         feet.pending &= ~feet.replanting
     else:

@@ -1003,7 +1003,8 @@ def _plant(lo, hi, dt, outputs, planted, feet, start, k_, mix):  # pragma: no co
             wants = mode[c, i] == BALL and gap > k_[_STOPPING]
             pending[c, i] = wants if kinds[c, 2] else (pending[c, i] and wants and standing)
             flat = mode[c, i] == BALL and (roll[c, i] == 0.0 if standing else turn[c, i] == 0.0)
-            if (flat and (gap > far or (shifted and i == further))) or (standing and pending[c, i]):
+            waited = standing and pending[c, i] and (kinds[c, 2] or roll[c, i] == 0.0)  # past the stop: held flat
+            if (flat and (gap > far or (shifted and i == further))) or waited:
                 if not standing or down - (not replanting[c, i]) == n_l - 1:
                     replanting[c, i] = True
             if replanting[c, i]:
