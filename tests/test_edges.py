@@ -592,7 +592,8 @@ def test_the_carry_limit_is_near_what_the_verb_shows_at_the_point(bandai, name, 
     for trial in range(6):
         point = rng.uniform(verb.points.min(axis=0), verb.points.max(axis=0))
         limit = verb.carry_limit(verb.weights(point))
-        alone = perform(bandai, [], seconds=6.0, seed=trial, start=name, adverbs=dict(zip(verb.adverb_names, point)), stay=True)
+        adverbs = dict(zip(verb.adverb_names, point))
+        alone = perform(bandai, [], seconds=6.0, seed=trial, start=name, adverbs=adverbs, stay=True)
         acc = _root_acceleration(alone, bandai)
         looping = np.convolve(alone.active >= 0, np.ones(3), "full")[: len(acc)] > 0  # the frame or the two before
         over.append(limit / acc[30:].max())

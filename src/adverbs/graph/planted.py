@@ -165,8 +165,8 @@ def plant(feet: GraphFeet, frame: Frame, dt: float, alone: np.ndarray, standing:
     distance (``spent``, below). Standing, a foot is re-placed only while every other foot is down
     (:func:`_others_down`); a stop's foot ``STOPPING`` off that the stop could not re-place (the other foot not yet
     down, or the walk's fading weight still rolling it a little) is kept ``pending`` and steps once it can, in the
-    stop or, past it, where the verbs hold it flat, while the creature stands and it is still that far: parked 11-12 cm off, it stepped mid-reach as the reach's stance took it
-    past 15 cm (5.6-7.7x the legs' own)."""
+    stop or, past it, where the verbs hold it flat, while the creature stands and it is still that far: parked
+    11-12 cm off, it stepped mid-reach as the reach's stance took it past 15 cm (5.6-7.7x the legs' own)."""
     p = feet.planter
     held = frame.held & ~feet.replanting
     swinging = np.where(frame.held, 0.0, frame.swing)

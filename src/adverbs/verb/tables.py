@@ -89,7 +89,7 @@ LEVEL_SAMPLES = 16  # Verb.contact_levels: poses sampled evenly over each foot's
 LEVEL_BLOCK = 256  # ... for this many creatures at a time
 LEVELS_KEPT = 4096  # single points' levels a verb keeps (forgotten all at once past this)
 SETTLING = 0.1  # m/s²: the least root acceleration a verb's examples are taken to have (a stand's sway had 0.1-0.2)
-ACCELERATION_SAMPLES = 129  # Verb.root_velocity_samples: samples of each example's root velocities over its generic time
+ACCELERATION_SAMPLES = 129  # Verb.root_velocity_samples: each example's root velocities over its generic time
 FRAME = 1.0 / 30.0  # seconds: the step over which Verb.carry_limit reads a verb's root acceleration, a frame's
 SPEED_SAMPLES = 65  # Verb.joint_speed_profile: each example's poses over its generic time
 
