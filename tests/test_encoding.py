@@ -134,3 +134,56 @@ def test_the_compiled_root_step_is_the_numpy_one():
     vel = rng.normal(0.0, [1.0, 3.0, 4.0], (500, 3))
     for dt in (1 / 30, 1 / 120, 0.7):
         np.testing.assert_allclose(advance_root(root, vel, dt), _advance_root_reference(root, vel, dt), rtol=0, atol=1e-13)
+
+
+def test_an_anchored_encoding_stands_where_the_feet_stand():
+    """An anchored encoding (``in_place = "feet"``) stores no travel: its root is the centre of the feet's stance in
+    the first frame (ankles' and toes' mean, on the floor), facing as the hips face there, and the hips' sway over the
+    feet is the pose's (``<body root>.tx``, ``.tz``). On the Bandai bows and guides (hips 6-11 cm over still feet):
+    velocity columns all zero, the round trip exact, the compiled decoder the NumPy one, and a pose decoded from
+    anywhere in the take at the take's start stands its feet where the take has them (a cut leaves no travel)."""
+    clips = [read_bvh(BANDAI / f"dataset-1_{name}_001.bvh") for name in ("bow_sad", "guide_normal", "guide_sad")]
+    enc = DofEncoding.fit(clips, anchored=True)
+    assert enc.anchored and not DofEncoding.fit(clips).anchored
+    body = enc.body_root
+    col = enc.names.index(f"{enc.skeleton.names[body]}.tx")
+    assert enc.names[col : col + 3] == tuple(f"{enc.skeleton.names[body]}.{a}" for a in ("tx", "ty", "tz"))
+    feet = [j for f in enc.skeleton.feet() for j in (f.ankle, f.toe)]
+    rng = np.random.default_rng(3)
+    for clip in clips:
+        dofs = enc.encode(clip)
+        pos = clip.global_positions()
+        np.testing.assert_array_equal(dofs[:, :3], 0.0)
+        np.testing.assert_array_equal(dofs[:, col + 1], 0.0)  # ty: the height is root.y's
+        start = enc.start(clip)
+        np.testing.assert_allclose(start[:2], pos[0, feet][:, [0, 2]].mean(axis=0), rtol=0, atol=1e-12)
+        assert np.ptp(np.linalg.norm(dofs[:, [col, col + 2]], axis=1)) > 0.03  # the hips sway 3+ cm over the feet
+        back = enc.decode_clip(dofs, clip.fps, start)
+        np.testing.assert_allclose(back.global_positions()[:, _body(clip)], pos[:, _body(clip)], rtol=0, atol=1e-9)
+        roots = np.broadcast_to(start, (len(dofs), 3))
+        rot, trans = enc.decode_pose(dofs, roots)
+        ref_rot, ref_trans = enc._decode_pose_reference(dofs, roots)
+        np.testing.assert_allclose(rot, ref_rot, rtol=0, atol=1e-14)
+        np.testing.assert_allclose(trans, ref_trans, rtol=0, atol=1e-12)
+        wild = dofs + rng.normal(0.0, 0.5, dofs.shape)
+        roots = rng.uniform(-50.0, 50.0, (len(dofs), 3))
+        np.testing.assert_allclose(enc.decode_pose(wild, roots)[1], enc._decode_pose_reference(wild, roots)[1],
+                                   rtol=0, atol=1e-12)  # fmt: skip
+        # Any frame decoded at the start stands its feet where the take has them (the take's own feet are still).
+        from adverbs.kinematics.fk import forward_kinematics
+
+        gp, _ = forward_kinematics(enc.skeleton.parents, *enc.decode_pose(dofs, np.broadcast_to(start, (len(dofs), 3))))
+        drift = np.linalg.norm((gp[:, feet] - pos[:, feet])[..., [0, 2]], axis=-1).max()
+        assert drift <= 1e-9, drift
+
+
+def test_an_anchored_encoding_needs_feet():
+    """Standing on the feet needs feet: a skeleton whose joint names show none is told so."""
+    import dataclasses
+
+    clip = read_bvh(BANDAI / "dataset-1_bow_sad_001.bvh")
+    names = tuple(n.replace("Foot", "Paw").replace("Toes", "Digit") for n in clip.skeleton.names)
+    pawed = clip.replace(skeleton=dataclasses.replace(clip.skeleton, names=names))
+    assert not pawed.skeleton.feet() and DofEncoding.fit(pawed).num_dofs
+    with pytest.raises(AdverbsError, match="no joint of this skeleton is named as a foot"):
+        DofEncoding.fit(pawed, anchored=True)

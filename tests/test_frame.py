@@ -201,3 +201,29 @@ def test_a_verb_no_creature_plays_may_refuse_their_adverbs(graphs):
         rot, trans = fp.step(1 / 30, plant=False)
         np.testing.assert_allclose(rot, plant_ref.rotations, rtol=0, atol=ATOL)
         np.testing.assert_allclose(trans, plant_ref.translations, rtol=0, atol=ATOL)
+
+
+def test_compiled_frames_equal_the_reference_where_the_stand_and_gestures_stand_on_their_feet(tmp_path):
+    """The Bandai graph with its stand and gestures standing on their feet (``in_place = "feet"``: the hips' sway over
+    the feet is the pose's, blends between them paced by it too): a run of six creatures through every verb, the
+    compiled frames the reference's."""
+    (tmp_path / "data").symlink_to(ROOT / "data")
+    for folder in ("specs", "graphs"):
+        (tmp_path / folder).mkdir()
+    for name in ("idle", "styled_walk", "run", "reach", "bow", "bye", "guide"):
+        text = (ROOT / "specs" / f"bandai_{name}.toml").read_text()
+        if name == "idle":
+            text = text.replace("\nin_place = true\n", '\nin_place = "feet"\n')
+        elif name in ("bow", "bye", "guide"):
+            text = text.replace("\ncyclic = false\n", '\ncyclic = false\nin_place = "feet"\n')
+        (tmp_path / "specs" / f"bandai_{name}.toml").write_text(text)
+    (tmp_path / "graphs" / "bandai.toml").write_text((ROOT / "graphs" / "bandai.toml").read_text())
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", AdverbsWarning)
+        graph = load_graph(tmp_path / "graphs" / "bandai.toml")
+    anchored = {n for n, v in zip(graph.verb_names, graph.verbs) if v.encoding.anchored}
+    assert anchored == {"idle", "bow", "bye", "guide"}, anchored
+    runs = [_scenario(graph, compiled=c, creatures=6, seconds=30.0, seed=5) for c in (False, True)]
+    _assert_same(*runs)
+    stands = {(e["from"], e["to"]) for e in runs[1].log if e["command"] == "transition"}
+    assert len({s for s in stands if set(s) <= anchored and s[0] != s[1]}) >= 3, stands  # paced by the hips too

@@ -358,7 +358,7 @@ def test_in_place_is_for_one_shots_and_keeps_the_body_where_it_stands(tmp_path):
     fails(path, None, "in_place", "one-shot")
     path = spec(tmp_path, example("a", WALK, "adverbs = { mood = 0 }"), example("b", FAST, "adverbs = { mood = 1 }"),
                 head=HEAD.replace("num_cp = 10", 'num_cp = 10\ncyclic = false\nin_place = "yes"'))  # fmt: skip
-    fails(path, None, "in_place", "true or false")
+    fails(path, None, "in_place", 'true, false or "feet"')
     take = read_bvh(BANDAI / "dataset-1_bow_sad_001.bvh").frames(185, 221)
     kept = in_place(take)
     body = take.skeleton.body_root()

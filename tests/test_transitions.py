@@ -696,13 +696,15 @@ def test_a_blend_between_standing_verbs_turns_no_part_faster_than_its_verbs(grap
 
 @pytest.mark.parametrize("verb", ["idle", "bow", "guide", "bye"])
 def test_a_verbs_own_part_speeds_are_what_its_poses_show(graphs, verb):
-    """How fast a verb turns each part at a creature's adverbs, as blends between standing verbs are paced by
-    (``Graph.own_speeds``: its examples' joint speeds blended with the creature's weights at each generic time, their
-    fastest) is 0.67-1.37x the fastest its poses there show, sampled 16 times finer, at valences across its span (the
-    sad bow's trunk 1.03x, where its examples' fastest blended, not their speeds through time, said 1.4x); at an
-    example's own weights it is that example's."""
+    """How fast a verb turns each part at a creature's adverbs, and moves its hips over its feet, as blends between
+    standing verbs are paced by (``Graph.own_speeds``: its examples' joint and body speeds blended with the creature's
+    weights at each generic time, their fastest) is 0.67-1.37x the fastest its poses there show, sampled 16 times
+    finer, at valences across its span (the sad bow's trunk 1.03x, where its examples' fastest blended, not their
+    speeds through time, said 1.4x); at an example's own weights it is that example's."""
     from adverbs.interp.timewarp import clock_time
+    from adverbs.kinematics.fk import forward_kinematics
     from adverbs.verb.sampling import dofs
+    from adverbs.verb.tables import body_place
 
     graph = graphs["bandai"]
     v = graph.verb_index(verb)
@@ -713,9 +715,11 @@ def test_a_verbs_own_part_speeds_are_what_its_poses_show(graphs, verb):
     g = np.linspace(0.0, 1.0, 16 * 64 + 1)
     for valence in (-0.9, -0.5, 0.2, 0.6):
         p = graph.verb_points(v, graph.point({"valence": valence})[None])[0]
-        rot, _ = own_verb.encoding.decode_pose(dofs(own_verb, np.tile(p, (len(g), 1)), g), np.zeros((len(g), 3)))
+        rot, trans = own_verb.encoding.decode_pose(dofs(own_verb, np.tile(p, (len(g), 1)), g), np.zeros((len(g), 3)))
         seconds = np.diff(clock_time(g, own_verb.keytimes(p), own_verb.generic_keytimes))
         speed = _angular_speed(rot) / FPS / seconds[:, None]  # (rad between samples, per second of the verb's clock)
-        shown = np.array([speed[:, part].max() for part in graph.paced])
+        place = body_place(own_verb.encoding, forward_kinematics(own_verb.skeleton.parents, rot, trans)[0])
+        body = np.linalg.norm(np.diff(place, axis=0), axis=-1) / seconds  # the hips over the feet
+        shown = np.array([*(speed[:, part].max() for part in graph.paced), body.max()])
         ratio = graph.own_speeds(v, own_verb.weights(p)) / shown
         assert np.all((ratio > 0.6) & (ratio < 1.4)), (valence, ratio)

@@ -341,8 +341,8 @@ ARRAY_FAULTS = {
     "a root with a parent": ("parents", put(0, 0), "member 'parents.npy': the first joint must be the root (parent -1), its parent is 0"),
     "an End Site on no joint": ("end_site_parents", put(1, 19), "member 'end_site_parents.npy': End Site 1 hangs from 19, not a joint (0 to 18)"),
     "a quaternion not of unit length": ("reference", put((4, 3), 2.0), "member 'reference.npy': row 4 has length"),
-    "a translated root": ("translated", lambda a: np.array([0]), "member 'translated.npy': must list joints below the body root"),
-    "a joint translated twice": ("translated", lambda a: np.array([2, 2]), "member 'translated.npy': must list joints below the body root, each once"),
+    "a translated joint it lacks": ("translated", lambda a: np.array([25]), "member 'translated.npy': must list the body root or joints below it"),
+    "a joint translated twice": ("translated", lambda a: np.array([2, 2]), "member 'translated.npy': must list the body root or joints below it, each once"),
     "a hold table of the wrong shape": ("hold_table", lambda a: a[:, :1], "member 'hold_table.npy': has shape (12, 1, 3), must be (12, 2, 3)"),
     "too few control points": ("coefficients", lambda a: a[:, :3], "member 'coefficients.npy': has shape (12, 3, 61), must be (12, 16, 61)"),
     "two examples at one point": ("points", lambda a: put(1, a[0].copy())(a), "examples 'walk' and 'fast walk' are at the same adverb point"),
@@ -531,3 +531,26 @@ def test_every_verb_round_trips_through_the_checks(verbs, tmp_path):
         again = load_verb(tmp_path / f"{name}.verb")
         assert again.encoding.names == verb.encoding.names and again.holds == verb.holds
         assert np.array_equal(again.coefficients, verb.coefficients) and again.adverbs == verb.adverbs
+
+
+def test_a_verb_standing_on_its_feet_round_trips(tmp_path):
+    """A verb built with ``in_place = "feet"`` (its body root's offset from the feet in translation columns) saves and
+    loads as it was built: the same columns, and the same poses decoded."""
+    from adverbs.verb import build_from_spec
+
+    root = Path(__file__).resolve().parent.parent
+    (tmp_path / "data").symlink_to(root / "data")
+    (tmp_path / "specs").mkdir()
+    text = (root / "specs" / "bandai_bow.toml").read_text()
+    text = text.replace("\ncyclic = false\n", '\ncyclic = false\nin_place = "feet"\n')
+    (tmp_path / "specs" / "bow.toml").write_text(text)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        verb = build_from_spec(tmp_path / "specs" / "bow.toml")
+    assert verb.encoding.anchored and {"Hips.tx", "Hips.ty", "Hips.tz"} <= set(verb.encoding.names)
+    save_verb(verb, tmp_path / "bow.verb")
+    again = load_verb(tmp_path / "bow.verb")
+    assert again.encoding.anchored and again.encoding.names == verb.encoding.names
+    dofs = verb.dofs(verb.points[:1].repeat(5, 0), np.linspace(0, 1, 5))
+    for a, b in zip(verb.encoding.decode_pose(dofs, np.zeros(3)), again.encoding.decode_pose(dofs, np.zeros(3))):
+        np.testing.assert_array_equal(a, b)

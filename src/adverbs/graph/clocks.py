@@ -14,7 +14,7 @@ import numpy as np
 from ..kinematics import quat
 from ..verb.sampling import SamplingState
 from ._time_kernel import clock_rows, generic_rows, later_rows
-from .state import MOST_PACED, PACE, GraphState
+from .state import MOST_PACED, PACE, PLACE_PACE, GraphState
 
 
 def blend_weight(beta: np.ndarray) -> np.ndarray:
@@ -66,7 +66,9 @@ def paced_length(
 ) -> float:
     """The least length (seconds) of creature ``c``'s cosine blend through transition ``k`` over ``regions`` ``(sa,
     ea, sb, eb)`` (generic times) for no part of :attr:`Graph.paced` to turn faster, by the blending alone, than
-    :data:`PACE` times its own fastest in the two verbs, up to :data:`MOST_PACED`.
+    :data:`PACE` times its own fastest in the two verbs, nor, between two verbs that stand on their feet
+    (``DofEncoding.anchored``), the hips to move from over one's stance to over the other's faster than
+    :data:`PLACE_PACE` times their own fastest (:func:`~adverbs.verb.tables.body_place`), up to :data:`MOST_PACED`.
 
     The blend turns a joint at ``α'(β) θ(β)``, ``θ`` the angle between the verbs' poses and ``α' = π sin(βπ) / 2T``
     over ``T`` seconds. ``θ`` is measured at ``β`` = :data:`PACED_AT` (A and B at those fractions of their regions,
@@ -80,18 +82,28 @@ def paced_length(
     t = graph.transitions[k]
     sa, ea, sb, eb = regions
     rows = np.full(len(PACED_AT), c, dtype=np.int64)
-    rot, omega = [], []
+    from ..kinematics.fk import forward_kinematics
+    from ..verb.tables import body_place
+
+    rot, place, omega = [], [], []
     if caches is None:
         caches = (_sampling(state, t.source, 0), _sampling(state, t.target, 1))
     for v, cache, s, e in ((t.source, caches[0], sa, ea), (t.target, caches[1], sb, eb)):
         verb = graph.verbs[v]
         d = run_kernel(verb, cache, rows, np.clip(s + PACED_AT * (e - s), 0.0, 1.0), GENERIC)
-        rot.append(verb.encoding.decode_pose(d, np.zeros(3))[0])
+        r, tr = verb.encoding.decode_pose(d, np.zeros(3))
+        rot.append(r)
+        place.append(body_place(verb.encoding, forward_kinematics(graph.skeleton.parents, r, tr)[0]))
         omega.append(graph.own_speeds(v, cache.weights[c]))
-    turn = quat.angle(rot[0], rot[1]) * np.sin(np.pi * PACED_AT)[:, None]  # (β, J)
+    apart = np.c_[quat.angle(rot[0], rot[1]), np.linalg.norm(place[0] - place[1], axis=-1)]  # (β, J + 1)
+    turn = apart * np.sin(np.pi * PACED_AT)[:, None]
     own = np.maximum(omega[0], omega[1])
-    need = max(float(turn[:, p].max()) / max(float(own[i]), 1e-9) for i, p in enumerate(graph.paced))
-    return min(0.5 * np.pi * need / PACE, MOST_PACED)
+    parts = [*graph.paced, np.array([graph.skeleton.num_joints])]  # ... and the body's place (Graph.paced_joints)
+    if not (graph.verbs[t.source].encoding.anchored and graph.verbs[t.target].encoding.anchored):
+        parts = parts[:-1]  # the hips move over the feet in a blend only where both verbs stand on them
+    pace = [PACE] * len(graph.paced) + [PLACE_PACE]
+    need = max(float(turn[:, p].max()) / max(float(own[i]), 1e-9) / pace[i] for i, p in enumerate(parts))
+    return min(0.5 * np.pi * need, MOST_PACED)
 
 
 def _sampling(state: GraphState, v: int, slot: int) -> SamplingState:

@@ -301,10 +301,11 @@ def _step(state: GraphState, dt: float) -> Frame:
             b_rot, b_trans, _ = state.shown_before
             state.offset_rot_vel[rows] = (_relative(s_rot[rows], b_rot[rows]) - _relative(rot[rows], rot0[rows])) / dt
             state.offset_trans_vel[rows] = ((s_trans[rows] - b_trans[rows]) - (trans[rows] - trans0[rows])) / dt
-        # The root's own travel is the root's: only heights and the pose carry an offset.
-        body = state.graph.verbs[0].encoding.body_root
-        state.offset_trans[rows, body, 0] = state.offset_trans[rows, body, 2] = 0.0
-        state.offset_trans_vel[rows, body, 0] = state.offset_trans_vel[rows, body, 2] = 0.0
+        # The root's own travel is the root's (offset_root): the body root carries an offset only for where the verbs
+        # stand it off the root and how fast that changes (an anchored verb's hips swaying over its feet,
+        # DofEncoding.anchored; none for a verb whose root is its hips).
+        if state.shown_before is not None:
+            _body_off_root(state, rows, new_root, dt)
     if len(live):
         decay_offsets(
             live, state.offset_since[live], state.offset_halflife[live], state.offset_rot, state.offset_rot_vel,
@@ -493,6 +494,22 @@ def carry_limits(state: GraphState, rows: np.ndarray) -> np.ndarray:
             mine = verbs == v
             out[mine] = np.maximum(out[mine], _carry(state, int(v), slot, rows[mine]))
     return out
+
+
+def _body_off_root(state: GraphState, rows: np.ndarray, new_root: np.ndarray, dt: float) -> None:
+    """Takes the roots' travel out of the body root's offset velocity ``offset_trans_vel`` of ``rows`` (across the
+    floor): the shown root's (its velocity ``shown[2]`` over the step to ``state.root``) less the verbs' (``state.root``
+    to ``new_root``), in the frame of the joint above the body root. What is left is how fast the body moved off its
+    root as shown, less as the verbs move it."""
+    body = state.graph.verbs[0].encoding.body_root
+    shown = state.shown[2][rows]
+    h0 = state.root[rows, 2]
+    was = advance_root(np.c_[np.zeros((len(rows), 2)), h0 - shown[:, 2] * dt], shown, dt)[:, :2] / dt
+    now = (new_root[rows, :2] - state.root[rows, :2]) / dt
+    d = was - now
+    travel = quat.rotate(state.graph.inverse_above_body, np.c_[d[:, 0], np.zeros(len(rows)), d[:, 1]])
+    state.offset_trans_vel[rows, body, 0] -= travel[:, 0]
+    state.offset_trans_vel[rows, body, 2] -= travel[:, 2]
 
 
 def _keep_feet(

@@ -94,6 +94,11 @@ def decode_row(
         0.0, math.sin(half), 0.0, math.cos(half), out_rot[body, 0], out_rot[body, 1], out_rot[body, 2], out_rot[body, 3]
     )
     px, py, pz = x, dofs[3], z
+    for k in range(translated.shape[0]):
+        if translated[k] == body:  # anchored (DofEncoding.anchored): the body root off its feet, in the heading's frame
+            c = 4 + 3 * r_count + 3 * k
+            ox, _, oz = _rotate_about_y(heading, dofs[c], 0.0, dofs[c + 2])
+            px, pz = px + ox, pz + oz
     if has_parent:
         x, y, z, w = parent_inv[0], parent_inv[1], parent_inv[2], parent_inv[3]
         gx, gy, gz, gw = _mul(x, y, z, w, gx, gy, gz, gw)

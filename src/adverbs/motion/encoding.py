@@ -10,6 +10,7 @@ Glossary of the columns, in order:
 | ``<body root>.*`` | body root orientation relative to its heading, 3 columns |
 | ``<joint>.*`` | each joint below the body root, 3 columns |
 | ``<joint>.tx/ty/tz`` | translation, only for joints whose position channels move (relative to the rest value) |
+| ``<body root>.tx/tz`` | an anchored encoding's body root off its feet (``ty`` is 0; see below) |
 
 Rotations are 3 columns each in one of two encodings:
 
@@ -19,9 +20,13 @@ Rotations are 3 columns each in one of two encodings:
   kept sign-consistent along time: continuous, and free of gimbal lock near the reference.
 
 The root is stored as velocities, so a decoded cycle can start from any position and heading and a
-cycle replayed after itself keeps going forward. The heading is the direction the hips face, taken
-from the line between the left and right hip joints, so it does not depend on how a rig orients its
-bones.
+cycle replayed after itself keeps going forward. An *anchored* encoding (a verb standing on its feet throughout:
+``in_place = "feet"`` in a spec) stores none: its root stands at the centre of the feet's stance in the first frame
+(the ankles' and toes' mean), facing the way the hips face there, and never travels or turns; the body root's
+horizontal offset from it (``<body root>.tx``, ``.tz``, in that facing) and its turn (in its rotation columns) are
+the pose's, so a blend or a cut leaves the figure on its feet and not where the hips had swayed to.
+The heading is the direction the hips face, taken from the line between the left and right hip joints, so it does
+not depend on how a rig orients its bones.
 """
 
 from __future__ import annotations
@@ -82,9 +87,14 @@ class DofEncoding:
 
     @classmethod
     def fit(
-        cls, clips: Clip | Sequence[Clip], kind: str = "logquat", body_root: int | str | None = None
+        cls,
+        clips: Clip | Sequence[Clip],
+        kind: str = "logquat",
+        body_root: int | str | None = None,
+        anchored: bool = False,
     ) -> DofEncoding:
-        """Choose references and translation DOFs from ``clips`` (all on one skeleton).
+        """Choose references and translation DOFs from ``clips`` (all on one skeleton); ``anchored``: the root stands
+        on the feet (see the module docstring; the skeleton's joint names must show its feet).
 
         The reference of each joint is the mean rotation over every frame of every clip, so the
         log map is evaluated close to its centre.
@@ -111,14 +121,21 @@ class DofEncoding:
         for c in clips:
             moving |= np.abs(c.translations - base).max(axis=(0, 2)) > _MOVING_TRANSLATION
         moving &= below
-        moving[root] = False
+        moving[root] = anchored
         translated = np.flatnonzero(moving)
+        if anchored and not stance_joints(skel):
+            raise AdverbsError(
+                "an anchored encoding (in_place = \"feet\") stands on the feet, and no joint of this skeleton is named "
+                "as a foot or an ankle"
+            )
 
         reference = quat.identity((skel.num_joints,))
         samples = []
         for c in clips:
             _, grot = c.forward_kinematics()
             h = character_heading(grot[:, root], lateral, c.fps)
+            if anchored:
+                h = np.full_like(h, h[0])
             rel = quat.mul(quat.about_y(-h), grot[:, root])
             local = c.rotations.copy()
             local[:, root] = rel
@@ -157,6 +174,26 @@ class DofEncoding:
         return len(self.names)
 
     @cached_property
+    def anchored(self) -> bool:
+        """Whether the root stands on the feet (the body root has translation columns: its offset from them)."""
+        return bool(np.any(self.translated == self.body_root))
+
+    @cached_property
+    def _offset_column(self) -> int:
+        """An anchored encoding's first column of the body root's offset (``<body root>.tx``)."""
+        k = int(np.flatnonzero(self.translated == self.body_root)[0])
+        return len(ROOT_COLUMNS) + 3 * len(self.rotated) + 3 * k
+
+    def _anchor(self, gpos: np.ndarray, grot: np.ndarray, fps: float) -> tuple[np.ndarray, np.ndarray]:
+        """The body root's heading ``(F,)`` and an anchored encoding's anchor ``(3,)`` (the stance's centre in the first
+        frame, on the floor) for a clip's global positions and rotations."""
+        h = character_heading(grot[:, self.body_root], self.lateral, fps, self.smoothing)
+        if not self.anchored:
+            return h, gpos[0, self.body_root] * np.array([1.0, 0.0, 1.0])
+        centre = gpos[0, stance_joints(self.skeleton)].mean(axis=0) * np.array([1.0, 0.0, 1.0])
+        return np.full_like(h, h[0]), centre
+
+    @cached_property
     def rotated(self) -> np.ndarray:
         """Joints with rotation columns, body root first (then skeleton order)."""
         return np.flatnonzero(_below(self.skeleton, self.body_root))
@@ -178,21 +215,25 @@ class DofEncoding:
 
     # ----- encode ----------------------------------------------------------------------------
     def start(self, clip: Clip) -> np.ndarray:
-        """Where ``clip`` starts: ``(x, z, heading)`` of the body root in its first frame."""
+        """Where ``clip`` starts: ``(x, z, heading)`` of the body root in its first frame (an anchored encoding's: of
+        the stance's centre, the heading the hips'; see the module docstring)."""
         gpos, grot = clip.forward_kinematics()
-        h = character_heading(grot[:, self.body_root], self.lateral, clip.fps, self.smoothing)[0]
-        return np.array([gpos[0, self.body_root, 0], gpos[0, self.body_root, 2], h])
+        h, anchor = self._anchor(gpos, grot, clip.fps)
+        return np.array([anchor[0], anchor[2], h[0]])
 
     def encode(self, clip: Clip) -> np.ndarray:
         """DOF curves ``(F, D)`` of ``clip``; see the module's glossary for the columns."""
         self._check(clip)
         gpos, grot = clip.forward_kinematics()
         root = self.body_root
-        h = character_heading(grot[:, root], self.lateral, clip.fps, self.smoothing)
+        h, anchor = self._anchor(gpos, grot, clip.fps)
         p = gpos[:, root]
         f = clip.num_frames
         out = np.empty((f, self.num_dofs))
-        if f > 1:
+        if self.anchored:
+            vel = np.zeros((f, 3))
+            turn = np.zeros(f)
+        elif f > 1:
             mid = 0.5 * (h[1:] + h[:-1])
             step = quat.rotate(quat.about_y(-mid), p[1:] - p[:-1]) * clip.fps
             vel = np.concatenate([step, step[-1:]])
@@ -212,6 +253,10 @@ class DofEncoding:
         if len(self.translated):
             t = clip.translations[:, self.translated] - self.base_translations[self.translated]
             out[:, 4 + 3 * len(rotated) :] = t.reshape(f, -1)
+        if self.anchored:  # the body root off the anchor, in its facing; its height is root.y
+            off = quat.rotate(quat.about_y(-h), p - anchor)
+            off[:, 1] = 0.0
+            out[:, self._offset_column : self._offset_column + 3] = off
         return out
 
     def _rotations_to_dofs(self, q: np.ndarray, joints: np.ndarray) -> np.ndarray:
@@ -312,6 +357,9 @@ class DofEncoding:
             t = dofs[..., 4 + 3 * len(rotated) :].reshape(lead + (len(self.translated), 3))
             translations[..., self.translated, :] = self.base_translations[self.translated] + t
 
+        if self.anchored:  # the body root off the anchor (its height is root.y's)
+            off = dofs[..., self._offset_column : self._offset_column + 3] * np.array([1.0, 0.0, 1.0])
+            p = p + quat.rotate(quat.about_y(h), off)
         # The body root's global transform, expressed below its (fixed) ancestors.
         g_root = quat.mul(quat.about_y(h), rotations[..., body, :])
         has_parent, inv_parent, parent_pos = self.above_body
@@ -376,6 +424,11 @@ def _advance_root_reference(root: np.ndarray, velocity: np.ndarray, dt: float | 
     v = np.stack([velocity[..., 0], np.zeros_like(velocity[..., 0]), velocity[..., 1]], axis=-1)
     step = quat.rotate(quat.about_y(0.5 * (h0 + h1)), v) * np.asarray(dt, dtype=float)[..., None]
     return np.stack([root[..., 0] + step[..., 0], root[..., 1] + step[..., 2], h1], axis=-1)
+
+
+def stance_joints(skel: Skeleton) -> list[int]:
+    """The joints whose mean is the centre of a stance: each foot's ankle and toe (those the skeleton has)."""
+    return [j for foot in skel.feet() for j in (foot.ankle, foot.toe) if j is not None]
 
 
 def _below(skel: Skeleton, root: int) -> np.ndarray:

@@ -80,7 +80,7 @@ STARTED, FINISHED = 1, 2  # events: a transition started, or finished, this fram
 FREE, BALL = 0, 2  # planting.FREE, planting.BALL
 # Where each constant sits in ``k_`` (see frame.FramePass).
 (_LATE, _MIN_DURATION, _INERTIAL, _LN2, _REPLANT, _REPLANTED, _SWING, _LIFT, _LANDS, _LEFT_BEHIND, _RISE, _DELAY, _LAND, _MIN_LOOP,
- _STANDING, _SHIFTED, _SWING_LIFT, _ARMS, _PACE, _MOST_PACED, _STOPPING, _SETTLING, _FRAME) = range(23)
+ _STANDING, _SHIFTED, _SWING_LIFT, _ARMS, _PACE, _MOST_PACED, _STOPPING, _SETTLING, _FRAME, _PLACE_PACE) = range(24)
 
 
 # ----- the tables, packed: per verb, a slice of a flat array (see frame.tables and FramePass) ------------------
@@ -235,6 +235,42 @@ def _own_speeds(v, slot, c, verbs, caches, part_of, out):  # pragma: no cover - 
         out[p] = min(max(out[p], lo), hi)
 
 
+@njit(cache=True, inline="always")
+def _anchored(verbs, v):  # pragma: no cover - compiled
+    """Whether verb ``v`` stands on its feet (``DofEncoding.anchored``: its body root has translation columns)."""
+    translated, body = _part(verbs[12], verbs[13], v), verbs[15][v]
+    for k in range(translated.shape[0]):
+        if translated[k] == body:
+            return True
+    return False
+
+
+@njit(cache=True, inline="always")
+def _global_position(parents, rot, trans, j):  # pragma: no cover - compiled
+    """Joint ``j``'s global position in a pose of local ``rot (J, 4)``, ``trans (J, 3)``: up its chain."""
+    px, py, pz = trans[j, 0], trans[j, 1], trans[j, 2]
+    k = parents[j]
+    while k >= 0:
+        x, y, z, w = rot[k, 0], rot[k, 1], rot[k, 2], rot[k, 3]
+        tx, ty, tz = 2.0 * (y * pz - z * py), 2.0 * (z * px - x * pz), 2.0 * (x * py - y * px)
+        px, py, pz = (px + w * tx + y * tz - z * ty + trans[k, 0], py + w * ty + z * tx - x * tz + trans[k, 1],
+                      pz + w * tz + x * ty - y * tx + trans[k, 2])  # fmt: skip
+        k = parents[k]
+    return px, py, pz
+
+
+@njit(cache=True, inline="always")
+def _stance_place(parents, rot, trans, body, stance):  # pragma: no cover - compiled
+    """``tables.body_place`` of one pose: the body root across the floor (x, z) less the mean of ``stance``'s."""
+    bx, _, bz = _global_position(parents, rot, trans, body)
+    sx, sz = 0.0, 0.0
+    for i in range(stance.shape[0]):
+        x, _, z = _global_position(parents, rot, trans, stance[i])
+        sx += x
+        sz += z
+    return bx - sx / stance.shape[0], bz - sz / stance.shape[0]
+
+
 @njit(cache=True, _nrt=False)
 def _paced(c, k, sa, ea, sb, eb, hbox, buf, hb):  # pragma: no cover - compiled
     """``clocks.paced_length`` of creature ``c``'s blend through transition ``k`` over the regions ``(sa, ea, sb,
@@ -244,7 +280,7 @@ def _paced(c, k, sa, ea, sb, eb, hbox, buf, hb):  # pragma: no cover - compiled
     d, r1, r2, blend, rot_a, trans_a, rot_b, trans_b = (
         scratch[2], scratch[6], scratch[7], scratch[8], scratch[11], scratch[12], scratch[22], scratch[23]
     )  # fmt: skip
-    part_of = skeleton[5]
+    part_of, body = skeleton[5], skeleton[3]  # part_of's last entry: the body's place (Graph.paced_joints)
     source, target = state[0][c], transitions[1][k]
     n_p = 0
     for j in range(part_of.shape[0]):
@@ -254,6 +290,7 @@ def _paced(c, k, sa, ea, sb, eb, hbox, buf, hb):  # pragma: no cover - compiled
     _own_speeds(target, 1, c, verbs, caches, part_of, other)
     for p in range(n_p):
         own[p] = max(max(own[p], other[p]), 1e-9)
+    placed = _anchored(verbs, source) and _anchored(verbs, target)  # both stand on their feet: the hips move over them
     need = 0.0
     for i in range(3):  # clocks.PACED_AT
         b = 0.25 * (i + 1)
@@ -262,14 +299,20 @@ def _paced(c, k, sa, ea, sb, eb, hbox, buf, hb):  # pragma: no cover - compiled
         _decode_verb(source, d, 0.0, 0.0, 0.0, verbs, rot_a, trans_a)
         _dofs(d, target, 1, c, min(max(sb + b * (eb - sb), 0.0), 1.0), verbs, caches, blend)
         _decode_verb(target, d, 0.0, 0.0, 0.0, verbs, rot_b, trans_b)
-        for j in range(part_of.shape[0]):
+        n_j = rot_a.shape[0]
+        for j in range(n_j):
             p = part_of[j]
             if p < 0:
                 continue
             dot = abs(rot_a[j, 0] * rot_b[j, 0] + rot_a[j, 1] * rot_b[j, 1] + rot_a[j, 2] * rot_b[j, 2]
                       + rot_a[j, 3] * rot_b[j, 3])  # fmt: skip
-            need = max(need, 2.0 * math.acos(min(dot, 1.0)) * scale / own[p])
-    return min(0.5 * np.pi * need / k_[_PACE], k_[_MOST_PACED])
+            need = max(need, 2.0 * math.acos(min(dot, 1.0)) * scale / own[p] / k_[_PACE])
+        if placed:
+            ax, az = _stance_place(skeleton[0], rot_a, trans_a, body, skeleton[7])
+            bx, bz = _stance_place(skeleton[0], rot_b, trans_b, body, skeleton[7])
+            apart = math.sqrt((ax - bx) ** 2 + (az - bz) ** 2)
+            need = max(need, apart * scale / own[part_of[n_j]] / k_[_PLACE_PACE])
+    return min(0.5 * np.pi * need, k_[_MOST_PACED])
 
 
 @njit(cache=True, _nrt=False)
@@ -646,9 +689,15 @@ def _creature(c, dt, flags, turns, hbox, buf, hb):  # pragma: no cover
                     offset_rot_vel[c, j, a] = (r1[a] - r2[a]) / dt
                     offset_trans_vel[c, j, a] = ((shown_trans[c, j, a] - before_trans[c, j, a])
                                                  - (trans[c, j, a] - trans0[j, a])) / dt  # fmt: skip
-        # The root's own travel is the root's: only heights and the pose carry an offset.
-        offset_trans[c, body, 0] = offset_trans[c, body, 2] = 0.0
-        offset_trans_vel[c, body, 0] = offset_trans_vel[c, body, 2] = 0.0
+            # The root's own travel is the root's (offset_root): the body root's offset velocity keeps how fast the
+            # body moved off its root as shown, less as the verbs move it (player._body_off_root).
+            sx, sz, _ = advance_root_row(0.0, 0.0, h0 - shown_vel[c, 2] * dt, shown_vel[c, 0], shown_vel[c, 1],
+                                         shown_vel[c, 2], dt)  # fmt: skip
+            dx, dz = sx / dt - (x1 - x0) / dt, sz / dt - (z1 - z0) / dt
+            ax, ay, az, aw = above_inv[0], above_inv[1], above_inv[2], above_inv[3]
+            tx, ty, tz = 2.0 * (ay * dz - az * 0.0), 2.0 * (az * dx - ax * dz), 2.0 * (ax * 0.0 - ay * dx)
+            offset_trans_vel[c, body, 0] -= dx + aw * tx + ay * tz - az * ty
+            offset_trans_vel[c, body, 2] -= dz + aw * tz + ax * ty - ay * tx
     if live:
         decay_row(offset_since[c], offset_halflife[c], offset_rot[c], offset_rot_vel[c], offset_trans[c],
                   offset_trans_vel[c], rot[c], trans[c], k_[_LN2])  # fmt: skip

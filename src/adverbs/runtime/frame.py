@@ -38,6 +38,7 @@ from ..graph import clocks, planted, player, queue, state as graph_state
 from ..graph.planted import GraphFeet, know_levels
 from ..graph.state import GraphState, sync_head
 from ..graph.structure import Graph
+from ..motion.encoding import stance_joints
 from ..feet import planter as planting
 from ..verb import tables as verb_tables
 from ..verb.sampling import SamplingState
@@ -112,9 +113,9 @@ def tables(graph: Graph) -> Tables:
         np.array([v.lift_table.shape[1:] if v.holds and v.cyclic else (0, 2, 0) for v in vs], dtype=np.int64),
         *packed([v.root_accelerations for v in vs]),
         *packed([v.root_velocity_samples for v in vs]),
-        *packed([v.joint_speed_profile for v in vs]),
+        *packed(list(graph.speed_profiles)),
         *packed(list(graph.part_speeds)),
-        np.array([v.joint_speed_profile.shape for v in vs], dtype=np.int64),
+        np.array([m.shape for m in graph.speed_profiles], dtype=np.int64),
     )  # fmt: skip
     ts = graph.transitions
     transitions = (
@@ -130,6 +131,7 @@ def tables(graph: Graph) -> Tables:
         np.ascontiguousarray(graph.inverse_above_body, dtype=float), int(vs[0].encoding.body_root),
         np.ascontiguousarray(graph.arms, dtype=np.int64), np.ascontiguousarray(graph.paced_joints, dtype=np.int64),
         graph.feet_path,  # what keep_feet_row's FK runs through
+        np.array(stance_joints(graph.skeleton) or [vs[0].encoding.body_root], dtype=np.int64),  # tables.body_place
     )  # fmt: skip
     out = Tables(verbs, transitions, max(v.num_dofs for v in vs), skeleton)
     _TABLES[graph] = out
@@ -143,7 +145,7 @@ def _constants() -> np.ndarray:
         planted.REPLANTED, planting.SWING_HALFLIFE, planting.LIFT_HALFLIFE, player.LANDS,
         planted.LEFT_BEHIND, planted.STEP_RISE, planted.STEP_DELAY, planted.STEP_LAND, graph_state.MIN_LOOP,
         planted.STANDING, planted.SHIFTED, planting.SWING_LIFT, graph_state.ARMS_BLEND, graph_state.PACE,
-        graph_state.MOST_PACED, planted.STOPPING, verb_tables.SETTLING, verb_tables.FRAME,
+        graph_state.MOST_PACED, planted.STOPPING, verb_tables.SETTLING, verb_tables.FRAME, graph_state.PLACE_PACE,
     ])  # fmt: skip
 
 

@@ -67,7 +67,7 @@ def examples_from_spec(spec: dict[str, Any]) -> tuple[list[Example], list[Adverb
             except AdverbsError as e:
                 raise SpecError(path, str(e), name, "mirror") from None
         pending.append(_cut(path, ex, clip, spec))
-        if spec.get("in_place"):
+        if spec.get("in_place") is True:
             pending[-1].part = in_place(pending[-1].part)
     _place_toe_offs(path, pending)
 

@@ -67,6 +67,7 @@ def build_verb(
     shrinkage: float | str = 0.0,
     goal_chain: Sequence[str] = (),
     timing: str = "extrapolate",
+    anchored: bool = False,
 ) -> Verb:
     """Fit B-splines to every example in generic time and set up the interpolation (§3.1, §4).
 
@@ -78,7 +79,9 @@ def build_verb(
     see :class:`~adverbs.interp.rbf.AdverbInterpolator`; 0, exact, is the default); ``goal_chain`` names
     the joints that put the joint of ``joint_position`` adverbs on its goal (see :mod:`adverbs.verb.goal`);
     ``timing`` says whether keytime intervals extrapolate past the examples or stay within theirs
-    (``"extrapolate"``, the paper's, or ``"clamp"``; see :class:`~adverbs.verb.tables.Verb`).
+    (``"extrapolate"``, the paper's, or ``"clamp"``; see :class:`~adverbs.verb.tables.Verb`); ``anchored``: the
+    verb stands on its feet throughout, its root where they stand (``in_place = "feet"``; see
+    :mod:`adverbs.motion.encoding`).
     """
     if len(examples) < 1:
         raise AdverbsError(f"verb {name!r}: needs at least one example")
@@ -117,7 +120,7 @@ def build_verb(
         spacing = timewarp.examples_spacing(keytimes)
     else:
         spacing = timewarp.even_spacing(keytimes.shape[1])
-    enc = DofEncoding.fit([ex.clip for ex in examples], encoding)
+    enc = DofEncoding.fit([ex.clip for ex in examples], encoding, anchored=anchored)
     coefficients = np.empty((len(examples), num_cp, enc.num_dofs))
     records = []
     for i, ex in enumerate(examples):
@@ -279,6 +282,7 @@ def build_from_examples(spec: dict, examples: Sequence[Example], adverbs: Sequen
             spec["shrinkage"],
             spec["goal_chain"],
             spec["timing"],
+            spec.get("in_place") == "feet",
         )
     except SpecError:
         raise

@@ -103,6 +103,11 @@ class Goal:
         chain = tuple(chain)
         if encoding.kind != "logquat":
             raise AdverbsError(f"goal: a goal chain needs the logquat encoding (the default), not {encoding.kind!r}")
+        if encoding.anchored:
+            raise AdverbsError(
+                'goal: a goal chain needs the body root\'s travel (its goal is measured along it): '
+                'not in_place = "feet"'
+            )
         if not chain or not all(isinstance(j, str) for j in chain):
             raise AdverbsError(f"goal: chain must be a list of one or more joint names, got {chain!r}")
         goal_adverbs = [

@@ -6,7 +6,8 @@ encoding = "logquat"          # or "euler" (the paper's channels)
 num_cp = 12                   # B-spline control points per DOF (NumCP)
 cyclic = true                 # a cycle (walk) or a one-shot motion (reach)
 in_place = false              # a one-shot that stays where it stands (a stand looping into itself): the
-                              # body root's travel and turn taken off every frame of every example
+                              # body root's travel and turn taken off every frame of every example; "feet":
+                              # its root is where its feet stand, the hips' sway over them kept in the pose
 skeleton = "data/x.bvh"       # optional: every example must be on this skeleton
 cut = { foot = "left", steps = 2 }   # default part of each file: one cycle from a left heel strike
 fps = 30                      # optional: resample every example to this rate (needed when files differ)
@@ -223,8 +224,8 @@ def load_spec(path: str | Path) -> dict[str, Any]:
     if not isinstance(cyclic, bool):
         raise SpecError(path, f"cyclic must be true or false, got {_show(cyclic)}", field="cyclic")
     in_place = raw.get("in_place", False)
-    if not isinstance(in_place, bool):
-        raise SpecError(path, f"in_place must be true or false, got {_show(in_place)}", field="in_place")
+    if not isinstance(in_place, bool) and in_place != "feet":
+        raise SpecError(path, f'in_place must be true, false or "feet", got {_show(in_place)}', field="in_place")
     if in_place and cyclic:
         raise SpecError(
             path, "a cycle's seam is taken off already: in_place is for one-shot verbs (cyclic = false)", field="in_place"

@@ -698,10 +698,12 @@ class _Reader:
         below = np.zeros(j, dtype=bool)  # the body root's descendants: the joints that may move
         for k in range(root + 1, j):
             below[k] = below[skel.parents[k]] or skel.parents[k] == root
+        movable = below.copy()
+        movable[root] = True  # an anchored encoding's body root: its offset from the feet (DofEncoding.anchored)
         if np.any(np.diff(translated) <= 0) or not np.all(
-            below[np.clip(translated, 0, j - 1)] & (translated >= 0) & (translated < j)
+            movable[np.clip(translated, 0, j - 1)] & (translated >= 0) & (translated < j)
         ):
-            raise self.bad("translated", "must list joints below the body root, each once, in skeleton order")
+            raise self.bad("translated", "must list the body root or joints below it, each once, in skeleton order")
         enc_names = self.names(e["names"], "encoding.names")
         rotated = [root] + [k for k in range(j) if below[k]]
         expected = list(ROOT_COLUMNS)

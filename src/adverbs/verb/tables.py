@@ -36,7 +36,7 @@ from ..kinematics import quat
 from ..kinematics.ik import LegChains
 from ..kinematics.skeleton import Skeleton
 from ..motion.clip import Clip
-from ..motion.encoding import DofEncoding
+from ..motion.encoding import DofEncoding, stance_joints
 from . import sampling, synthesis
 from .constraints import Constraint, Hold, check_constraint, default_holds
 from . import goal as goals
@@ -418,11 +418,29 @@ class Verb:
 
         Derived from the tables alone, computed on first use and kept (it never changes).
         """
-        generic = np.linspace(0.0, 1.0, SPEED_SAMPLES)
         rot, _ = self.encoding.decode_pose(self._example_samples(SPEED_SAMPLES), np.zeros(3))  # (E, S + 1, J, 4)
         turn = quat.angle(rot[:, 1:], rot[:, :-1])
-        step = np.diff(np.stack([timewarp.clock_time(generic, k, self.generic_keytimes) for k in self.keytimes_table]))
-        return _frozen(turn / step[..., None])
+        return _frozen(turn / self._speed_steps[..., None])
+
+    @cached_property
+    def body_speed_profile(self) -> np.ndarray:
+        """How fast each example moves its body root across the floor over its feet ``(E, S)``, m/s of its own clock,
+        at :attr:`joint_speed_profile`'s times: the hips against the centre of the stance (:func:`body_place`), as a
+        standing verb sways. A blend between standing verbs is paced by it too (``clocks.paced_length``).
+
+        Derived from the tables alone, computed on first use and kept (it never changes).
+        """
+        from ..kinematics.fk import forward_kinematics  # (kinematics does not import verbs; kept local all the same)
+
+        rot, trans = self.encoding.decode_pose(self._example_samples(SPEED_SAMPLES), np.zeros(3))  # (E, S + 1, J, ·)
+        place = body_place(self.encoding, forward_kinematics(self.skeleton.parents, rot, trans)[0])
+        return _frozen(np.linalg.norm(np.diff(place, axis=1), axis=-1) / self._speed_steps)
+
+    @cached_property
+    def _speed_steps(self) -> np.ndarray:
+        """Each example's clock time between the generic times of :attr:`joint_speed_profile` ``(E, S)``."""
+        generic = np.linspace(0.0, 1.0, SPEED_SAMPLES)
+        return np.diff(np.stack([timewarp.clock_time(generic, k, self.generic_keytimes) for k in self.keytimes_table]))
 
     @cached_property
     def root_accelerations(self) -> np.ndarray:
@@ -617,6 +635,14 @@ class Verb:
     ) -> tuple[Clip, np.ndarray]:
         """A clip at ``p`` and its keytimes ``(N,)``; see :func:`~adverbs.verb.synthesis.synthesize`."""
         return synthesis.synthesize(self, p, duration, cycles, fps, start)
+
+
+def body_place(encoding: DofEncoding, positions: np.ndarray) -> np.ndarray:
+    """Where the body root stands over the feet ``(..., 2)``: its position across the floor (x, z) less the centre of
+    the stance (the ankles' and toes' mean), for global joint ``positions (..., J, 3)``; the body root's own where the
+    skeleton shows no feet."""
+    stance = stance_joints(encoding.skeleton) or [encoding.body_root]
+    return (positions[..., encoding.body_root, :] - positions[..., stance, :].mean(axis=-2))[..., [0, 2]]
 
 
 def follows(adverbs: Sequence[Adverb], encoding: DofEncoding) -> np.ndarray:
