@@ -79,6 +79,44 @@ def test_no_offset_at_the_examples(reach):
     assert np.all(compiled == 0.0) and np.all(reference == 0.0)
 
 
+@pytest.fixture(scope="module")
+def standing_reach(tmp_path_factory):
+    """The shipped reach standing on its feet (``in_place = "feet"``): its root the centre of its stance."""
+    import warnings
+    from pathlib import Path
+
+    from adverbs.verb import build_from_spec
+
+    root, tmp = Path(__file__).resolve().parent.parent, tmp_path_factory.mktemp("standing")
+    (tmp / "data").symlink_to(root / "data")
+    (tmp / "specs").mkdir()
+    text = (root / "specs" / "bandai_reach.toml").read_text()
+    (tmp / "specs" / "reach.toml").write_text(text.replace("\ncyclic = false\n", '\ncyclic = false\nin_place = "feet"\n'))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return build_from_spec(tmp / "specs" / "reach.toml")
+
+
+def test_a_reach_standing_on_its_feet_solves_as_the_reference_and_puts_the_hand_on_its_goal(standing_reach):
+    """Standing on its feet, the reach's hips sway over them in the pose (``<body root>.tx``, ``.tz``) and its root
+    does not travel; the goal is measured as ever, from the hips' ground point at the start. The compiled solve is the
+    reference, no offset at the examples, and the synthesized motion puts the hand where the adverbs ask."""
+    from adverbs.verb.measures import measure_all
+
+    verb = standing_reach
+    assert verb.encoding.anchored and not verb.root_velocity_samples.any()
+    points = _points(verb)
+    for kind in ("uniform inside", "uniform 25% past"):
+        compiled, reference = _both(verb, points[kind])
+        np.testing.assert_allclose(compiled, reference, rtol=0, atol=AGREE, err_msg=kind)
+    compiled, reference = _both(verb, verb.points)
+    assert np.all(compiled == 0.0) and np.all(reference == 0.0)
+    measures = [a.measure for a in verb.adverbs]
+    for p in points["uniform inside"][:6]:
+        clip, keys = verb.synthesize(p, fps=60.0)
+        np.testing.assert_allclose(measure_all(clip, keys, measures), p, rtol=0, atol=0.003)
+
+
 def test_a_gapped_or_reordered_chain_is_solved_as_the_reference_solves_it(reach):
     # Joints of the goal joint's ancestors left out of the chain (Spine, Shoulder_R, LowerArm_R) keep the pose's
     # rotation; a chain listed hand first has its offset's blocks in that order; the hand itself in the chain turns

@@ -330,6 +330,10 @@ def _decode_path(
         gx, gy, gz, gw = _mul(0.0, math.sin(half), 0.0, math.cos(half), lrot[body, 0], lrot[body, 1], lrot[body, 2],
                               lrot[body, 3])  # fmt: skip
         px, py, pz = x, pose[3], z
+        t = trans_col[body]
+        if t >= 0:  # anchored (DofEncoding.anchored): the body root off its feet, in the heading's frame
+            ox, _, oz = _rotate_about_y(heading, pose[t], 0.0, pose[t + 2])
+            px, pz = px + ox, pz + oz
         if has_parent:
             qx, qy, qz, qw = parent_inv[0], parent_inv[1], parent_inv[2], parent_inv[3]
             gx, gy, gz, gw = _mul(qx, qy, qz, qw, gx, gy, gz, gw)

@@ -103,11 +103,6 @@ class Goal:
         chain = tuple(chain)
         if encoding.kind != "logquat":
             raise AdverbsError(f"goal: a goal chain needs the logquat encoding (the default), not {encoding.kind!r}")
-        if encoding.anchored:
-            raise AdverbsError(
-                'goal: a goal chain needs the body root\'s travel (its goal is measured along it): '
-                'not in_place = "feet"'
-            )
         if not chain or not all(isinstance(j, str) for j in chain):
             raise AdverbsError(f"goal: chain must be a list of one or more joint names, got {chain!r}")
         goal_adverbs = [
@@ -386,7 +381,9 @@ def _tables(verb, goal: Goal) -> tuple:
         key = [3] + [c + a for c in rot_col[:-1] if c >= 0 for a in range(3)]  # the goal joint's rotation: not read
         key += [c + a for c in trans_col if c >= 0 for a in range(3)]
         key_cols = np.array(key, dtype=np.int64)
-        start_cols = np.array([3] + [rot_col[body] + a for a in range(3)], dtype=np.int64)
+        start = [3] + [rot_col[body] + a for a in range(3)]
+        start += [trans_col[body] + a for a in range(3)] if trans_col[body] >= 0 else []  # stood off its feet (anchored)
+        start_cols = np.array(start, dtype=np.int64)
         velocities, key_pose, start_pose = _goal_kernel.tables(
             verb.segments, np.ascontiguousarray(verb.keytimes_table[:1]), verb.generic_keytimes, goal.keytime, _GRID,
             key_cols, start_cols,
