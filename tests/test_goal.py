@@ -91,7 +91,8 @@ def standing_reach(tmp_path_factory):
     (tmp / "data").symlink_to(root / "data")
     (tmp / "specs").mkdir()
     text = (root / "specs" / "bandai_reach.toml").read_text()
-    (tmp / "specs" / "reach.toml").write_text(text.replace("\ncyclic = false\n", '\ncyclic = false\nin_place = "feet"\n'))
+    text = text.replace("\ncyclic = false\n", '\ncyclic = false\nin_place = "feet"\n')
+    (tmp / "specs" / "reach.toml").write_text(text)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         return build_from_spec(tmp / "specs" / "reach.toml")

@@ -382,7 +382,8 @@ def _tables(verb, goal: Goal) -> tuple:
         key += [c + a for c in trans_col if c >= 0 for a in range(3)]
         key_cols = np.array(key, dtype=np.int64)
         start = [3] + [rot_col[body] + a for a in range(3)]
-        start += [trans_col[body] + a for a in range(3)] if trans_col[body] >= 0 else []  # stood off its feet (anchored)
+        if trans_col[body] >= 0:  # an anchored verb's body root stands off its feet
+            start += [trans_col[body] + a for a in range(3)]
         start_cols = np.array(start, dtype=np.int64)
         velocities, key_pose, start_pose = _goal_kernel.tables(
             verb.segments, np.ascontiguousarray(verb.keytimes_table[:1]), verb.generic_keytimes, goal.keytime, _GRID,
