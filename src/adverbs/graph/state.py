@@ -38,8 +38,9 @@ MIN_LOOP = 1e-6  # seconds
 PACE = 1.0
 # Between two verbs that stand on their feet (in_place = "feet"), the hips move from over one verb's stance to over the
 # other's as the blend goes, no faster than PLACE_PACE times their own fastest (Verb.body_speed_profile). The Bandai
-# stand into the guide moves them 5-11 cm; paced as the joints are (1.0), 23 of 30 random scripts' windows of it
-# accelerated the hips past 1.5x the verbs' own (0.5-1 m/s² against 0.3-0.6), at 0.5 none did (seeds 200-229).
+# stand into the guide moves them 5-11 cm; with the stand and gestures on their feet and paced as the joints are
+# (1.0), 23 windows of 30 random scripts (seeds 200-229) accelerated the hips past 1.5x the verbs' own (up to 2.5x,
+# the stand into the guide and the reach); at 0.5, 2 (1.5x and 2.0x).
 PLACE_PACE = 0.5
 MOST_PACED = 2.0  # seconds: ... but no longer than this (a sad stand into a sad reach asked for 2.8)
 _LATE = 1e-9  # generic time: a region start this close behind is not yet gone by

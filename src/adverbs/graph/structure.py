@@ -281,9 +281,9 @@ class Graph:
 
     @cached_property
     def paced_joints(self) -> np.ndarray:
-        """Which of :attr:`paced` each joint is in ``(J + 1,)``, −1 for none; the last entry is the body's place (the
-        body root across the floor off the root: an anchored verb's hips over its feet), a part of its own after
-        them (``P``; see :attr:`speed_profiles`)."""
+        """Which of :attr:`paced` each joint is in ``(J + 1,)``, −1 for none; the last entry is the body's place (where
+        the body root stands over the feet, :func:`~adverbs.verb.tables.body_place`), a part of its own after them
+        (``P``; see :attr:`speed_profiles`)."""
         out = np.full(self.skeleton.num_joints + 1, -1, dtype=np.int64)
         for i, p in enumerate(self.paced):
             out[p] = i
@@ -293,7 +293,7 @@ class Graph:
     @cached_property
     def speed_profiles(self) -> tuple[np.ndarray, ...]:
         """Per verb: its examples' joint speeds (rad/s, :attr:`Verb.joint_speed_profile`) and, last, its body's speed
-        off its root (m/s, :attr:`Verb.body_speed_profile`) ``(E_v, S, J + 1)``, as :attr:`paced_joints` reads them."""
+        over its feet (m/s, :attr:`Verb.body_speed_profile`) ``(E_v, S, J + 1)``, as :attr:`paced_joints` reads them."""
         return tuple(
             np.ascontiguousarray(np.concatenate([v.joint_speed_profile, v.body_speed_profile[..., None]], axis=2))
             for v in self.verbs
@@ -301,7 +301,7 @@ class Graph:
 
     @cached_property
     def part_speeds(self) -> tuple[np.ndarray, ...]:
-        """Per verb: each example's fastest joint of each of :attr:`paced` and its body's fastest off its root
+        """Per verb: each example's fastest joint of each of :attr:`paced` and its body's fastest over its feet
         ``(E_v, P + 1)``, rad/s and m/s (:attr:`speed_profiles`)."""
         return tuple(np.stack([m.max(axis=1) for m in profiles], axis=1) for profiles in self._paced_profiles)
 
@@ -315,7 +315,7 @@ class Graph:
         )  # fmt: skip
 
     def own_speeds(self, v: int, weights: np.ndarray) -> np.ndarray:
-        """Verb ``v``'s fastest joint of each of :attr:`paced` and its body's fastest off its root ``(P + 1,)`` at
+        """Verb ``v``'s fastest joint of each of :attr:`paced` and its body's fastest over its feet ``(P + 1,)`` at
         cardinal ``weights (E_v,)``, rad/s and m/s: its examples' :attr:`speed_profiles` blended with the weights at
         each generic time, at its fastest, kept within the examples' own (:attr:`part_speeds`)."""
         profiles, speeds = self._paced_profiles[v], self.part_speeds[v]
