@@ -42,6 +42,23 @@ VERB_SPECS = ["cmu_walk", "bandai_styled_walk", "bandai_reach"]
 RUN_SPECS = ["cmu_run", "bandai_run"]
 
 
+def on_their_feet(folder: Path, feet, others=()) -> Path:
+    """Copies of shipped specs in ``folder / "specs"``, the repo's data linked beside them as their paths expect:
+    ``feet`` (spec names) standing on their feet (``in_place = "feet"``, for ``in_place = true`` or after ``cyclic =
+    false``), ``others`` as shipped. Returns the specs folder."""
+    (folder / "data").symlink_to(DATA)
+    specs = folder / "specs"
+    specs.mkdir()
+    for name in [*feet, *others]:
+        text = (SPECS / f"{name}.toml").read_text()
+        if name in feet and "\nin_place = true\n" in text:
+            text = text.replace("\nin_place = true\n", '\nin_place = "feet"\n')
+        elif name in feet and 'in_place = "feet"' not in text:
+            text = text.replace("\ncyclic = false\n", '\ncyclic = false\nin_place = "feet"\n')
+        (specs / f"{name}.toml").write_text(text)
+    return specs
+
+
 def _built(names):
     import warnings
 

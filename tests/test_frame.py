@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import on_their_feet
 
 from adverbs import AdverbsError, load_graph
 from adverbs.errors import AdverbsWarning
@@ -207,16 +208,9 @@ def test_compiled_frames_equal_the_reference_where_the_stand_and_gestures_stand_
     """The Bandai graph with its stand and gestures standing on their feet (``in_place = "feet"``: the hips' sway over
     the feet is the pose's, blends between them paced by it too): a run of six creatures through every verb, the
     compiled frames the reference's."""
-    (tmp_path / "data").symlink_to(ROOT / "data")
-    for folder in ("specs", "graphs"):
-        (tmp_path / folder).mkdir()
-    for name in ("idle", "styled_walk", "run", "reach", "bow", "bye", "guide"):
-        text = (ROOT / "specs" / f"bandai_{name}.toml").read_text()
-        if name == "idle":
-            text = text.replace("\nin_place = true\n", '\nin_place = "feet"\n')
-        elif name in ("bow", "bye", "guide"):
-            text = text.replace("\ncyclic = false\n", '\ncyclic = false\nin_place = "feet"\n')
-        (tmp_path / "specs" / f"bandai_{name}.toml").write_text(text)
+    feet = [f"bandai_{name}" for name in ("idle", "bow", "bye", "guide")]
+    on_their_feet(tmp_path, feet, [f"bandai_{name}" for name in ("styled_walk", "run", "reach")])
+    (tmp_path / "graphs").mkdir()
     (tmp_path / "graphs" / "bandai.toml").write_text((ROOT / "graphs" / "bandai.toml").read_text())
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", AdverbsWarning)

@@ -83,19 +83,15 @@ def test_no_offset_at_the_examples(reach):
 def standing_reach(tmp_path_factory):
     """The shipped reach standing on its feet (``in_place = "feet"``): its root the centre of its stance."""
     import warnings
-    from pathlib import Path
+
+    from conftest import on_their_feet
 
     from adverbs.verb import build_from_spec
 
-    root, tmp = Path(__file__).resolve().parent.parent, tmp_path_factory.mktemp("standing")
-    (tmp / "data").symlink_to(root / "data")
-    (tmp / "specs").mkdir()
-    text = (root / "specs" / "bandai_reach.toml").read_text()
-    text = text.replace("\ncyclic = false\n", '\ncyclic = false\nin_place = "feet"\n')
-    (tmp / "specs" / "reach.toml").write_text(text)
+    specs = on_their_feet(tmp_path_factory.mktemp("standing"), ["bandai_reach"])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        return build_from_spec(tmp / "specs" / "reach.toml")
+        return build_from_spec(specs / "bandai_reach.toml")
 
 
 def test_a_reach_standing_on_its_feet_solves_as_the_reference_and_puts_the_hand_on_its_goal(standing_reach):

@@ -536,17 +536,14 @@ def test_every_verb_round_trips_through_the_checks(verbs, tmp_path):
 def test_a_verb_standing_on_its_feet_round_trips(tmp_path):
     """A verb built with ``in_place = "feet"`` (its body root's offset from the feet in translation columns) saves and
     loads as it was built: the same columns, and the same poses decoded."""
+    from conftest import on_their_feet
+
     from adverbs.verb import build_from_spec
 
-    root = Path(__file__).resolve().parent.parent
-    (tmp_path / "data").symlink_to(root / "data")
-    (tmp_path / "specs").mkdir()
-    text = (root / "specs" / "bandai_bow.toml").read_text()
-    text = text.replace("\ncyclic = false\n", '\ncyclic = false\nin_place = "feet"\n')
-    (tmp_path / "specs" / "bow.toml").write_text(text)
+    specs = on_their_feet(tmp_path, ["bandai_bow"])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        verb = build_from_spec(tmp_path / "specs" / "bow.toml")
+        verb = build_from_spec(specs / "bandai_bow.toml")
     assert verb.encoding.anchored and {"Hips.tx", "Hips.ty", "Hips.tz"} <= set(verb.encoding.names)
     save_verb(verb, tmp_path / "bow.verb")
     again = load_verb(tmp_path / "bow.verb")

@@ -85,22 +85,24 @@ def paced_length(
     from ..kinematics.fk import forward_kinematics
     from ..verb.tables import body_place
 
-    rot, place, omega = [], [], []
+    # The hips move over the feet in a blend only where both verbs stand on them: their place is read only then.
+    placed = graph.verbs[t.source].encoding.anchored and graph.verbs[t.target].encoding.anchored
+    rot, place, omega = [], [np.zeros((len(PACED_AT), 2))] * 2, []
     if caches is None:
         caches = (_sampling(state, t.source, 0), _sampling(state, t.target, 1))
-    for v, cache, s, e in ((t.source, caches[0], sa, ea), (t.target, caches[1], sb, eb)):
+    for i, (v, cache, s, e) in enumerate(((t.source, caches[0], sa, ea), (t.target, caches[1], sb, eb))):
         verb = graph.verbs[v]
         d = run_kernel(verb, cache, rows, np.clip(s + PACED_AT * (e - s), 0.0, 1.0), GENERIC)
         r, tr = verb.encoding.decode_pose(d, np.zeros(3))
         rot.append(r)
-        place.append(body_place(verb.encoding, forward_kinematics(graph.skeleton.parents, r, tr)[0]))
+        if placed:
+            place[i] = body_place(verb.encoding, forward_kinematics(graph.skeleton.parents, r, tr)[0])
         omega.append(graph.own_speeds(v, cache.weights[c]))
     apart = np.c_[quat.angle(rot[0], rot[1]), np.linalg.norm(place[0] - place[1], axis=-1)]  # (β, J + 1)
     turn = apart * np.sin(np.pi * PACED_AT)[:, None]
     own = np.maximum(omega[0], omega[1])
     parts = [*graph.paced, np.array([graph.skeleton.num_joints])]  # ... and the body's place (Graph.paced_joints)
-    if not (graph.verbs[t.source].encoding.anchored and graph.verbs[t.target].encoding.anchored):
-        parts = parts[:-1]  # the hips move over the feet in a blend only where both verbs stand on them
+    parts = parts if placed else parts[:-1]
     pace = [PACE] * len(graph.paced) + [PLACE_PACE]
     need = max(float(turn[:, p].max()) / max(float(own[i]), 1e-9) / pace[i] for i, p in enumerate(parts))
     return min(0.5 * np.pi * need, MOST_PACED)

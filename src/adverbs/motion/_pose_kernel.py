@@ -26,6 +26,15 @@ def _mul(ax, ay, az, aw, bx, by, bz, bw):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
+def _rotate(x, y, z, w, vx, vy, vz):  # pragma: no cover - compiled
+    """``quat.rotate`` of one vector, the same arithmetic."""
+    tx = 2.0 * (y * vz - z * vy)
+    ty = 2.0 * (z * vx - x * vz)
+    tz = 2.0 * (x * vy - y * vx)
+    return vx + w * tx + y * tz - z * ty, vy + w * ty + z * tx - x * tz, vz + w * tz + x * ty - y * tx
+
+
+@njit(cache=True, inline="always")
 def _exp(rx, ry, rz):  # pragma: no cover - compiled
     angle = math.sqrt(rx * rx + ry * ry + rz * rz)
     half = 0.5 * angle

@@ -71,7 +71,7 @@ from .._scratch_kernel import carve, keep
 from ..graph._blend_kernel import decay_row, keep_feet_row
 from ._borrow_kernel import borrowed_box
 from ..graph._time_kernel import _clock, _generic
-from ..motion._pose_kernel import _exp, _log, _mul, advance_root_row, blend_row, decode_row, root_velocity_row
+from ..motion._pose_kernel import _exp, _log, _mul, _rotate, advance_root_row, blend_row, decode_row, root_velocity_row
 from ..feet._planting_kernel import step as plant_step
 from ..feet._planting_scalars import hold_mode, smoothstep, spring
 from ..verb._sampling_kernel import GENERIC, VELOCITIES, goal_weight, phase, query_into
@@ -251,10 +251,8 @@ def _global_position(parents, rot, trans, j):  # pragma: no cover - compiled
     px, py, pz = trans[j, 0], trans[j, 1], trans[j, 2]
     k = parents[j]
     while k >= 0:
-        x, y, z, w = rot[k, 0], rot[k, 1], rot[k, 2], rot[k, 3]
-        tx, ty, tz = 2.0 * (y * pz - z * py), 2.0 * (z * px - x * pz), 2.0 * (x * py - y * px)
-        px, py, pz = (px + w * tx + y * tz - z * ty + trans[k, 0], py + w * ty + z * tx - x * tz + trans[k, 1],
-                      pz + w * tz + x * ty - y * tx + trans[k, 2])  # fmt: skip
+        px, py, pz = _rotate(rot[k, 0], rot[k, 1], rot[k, 2], rot[k, 3], px, py, pz)
+        px, py, pz = px + trans[k, 0], py + trans[k, 1], pz + trans[k, 2]
         k = parents[k]
     return px, py, pz
 
@@ -694,10 +692,9 @@ def _creature(c, dt, flags, turns, hbox, buf, hb):  # pragma: no cover
             sx, sz, _ = advance_root_row(0.0, 0.0, h0 - shown_vel[c, 2] * dt, shown_vel[c, 0], shown_vel[c, 1],
                                          shown_vel[c, 2], dt)  # fmt: skip
             dx, dz = sx / dt - (x1 - x0) / dt, sz / dt - (z1 - z0) / dt
-            ax, ay, az, aw = above_inv[0], above_inv[1], above_inv[2], above_inv[3]
-            tx, ty, tz = 2.0 * (ay * dz - az * 0.0), 2.0 * (az * dx - ax * dz), 2.0 * (ax * 0.0 - ay * dx)
-            offset_trans_vel[c, body, 0] -= dx + aw * tx + ay * tz - az * ty
-            offset_trans_vel[c, body, 2] -= dz + aw * tz + ax * ty - ay * tx
+            tx, _, tz = _rotate(above_inv[0], above_inv[1], above_inv[2], above_inv[3], dx, 0.0, dz)
+            offset_trans_vel[c, body, 0] -= tx
+            offset_trans_vel[c, body, 2] -= tz
     if live:
         decay_row(offset_since[c], offset_halflife[c], offset_rot[c], offset_rot_vel[c], offset_trans[c],
                   offset_trans_vel[c], rot[c], trans[c], k_[_LN2])  # fmt: skip

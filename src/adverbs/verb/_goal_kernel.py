@@ -31,7 +31,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..motion._pose_kernel import _exp, _mul, _rotate_about_y
+from ..motion._pose_kernel import _exp, _mul, _rotate, _rotate_about_y
 from ._sampling_kernel import ONE_SHOT, phase
 
 
@@ -279,15 +279,6 @@ def _cost(target, at, res, delta, mu2):  # pragma: no cover
     for k in range(delta.shape[0]):
         norm += delta[k] * delta[k]
     return left, left + mu2 * norm
-
-
-@njit(cache=True, inline="always")
-def _rotate(x, y, z, w, vx, vy, vz):  # pragma: no cover
-    """``quat.rotate`` of one vector, the same arithmetic."""
-    tx = 2.0 * (y * vz - z * vy)
-    ty = 2.0 * (z * vx - x * vz)
-    tz = 2.0 * (x * vy - y * vx)
-    return vx + w * tx + y * tz - z * ty, vy + w * ty + z * tx - x * tz, vz + w * tz + x * ty - y * tx
 
 
 @njit(cache=True, inline="always")

@@ -418,7 +418,7 @@ class Verb:
 
         Derived from the tables alone, computed on first use and kept (it never changes).
         """
-        rot, _ = self.encoding.decode_pose(self._example_samples(SPEED_SAMPLES), np.zeros(3))  # (E, S + 1, J, 4)
+        rot, _ = self._speed_poses
         turn = quat.angle(rot[:, 1:], rot[:, :-1])
         return _frozen(turn / self._speed_steps[..., None])
 
@@ -432,9 +432,14 @@ class Verb:
         """
         from ..kinematics.fk import forward_kinematics  # (kinematics does not import verbs; kept local all the same)
 
-        rot, trans = self.encoding.decode_pose(self._example_samples(SPEED_SAMPLES), np.zeros(3))  # (E, S + 1, J, ·)
-        place = body_place(self.encoding, forward_kinematics(self.skeleton.parents, rot, trans)[0])
+        place = body_place(self.encoding, forward_kinematics(self.skeleton.parents, *self._speed_poses)[0])
         return _frozen(np.linalg.norm(np.diff(place, axis=1), axis=-1) / self._speed_steps)
+
+    @cached_property
+    def _speed_poses(self) -> tuple[np.ndarray, np.ndarray]:
+        """Each example's local rotations and translations ``(E, S + 1, J, ·)`` at :attr:`joint_speed_profile`'s
+        generic times (decoded at one root): what both speed profiles read."""
+        return self.encoding.decode_pose(self._example_samples(SPEED_SAMPLES), np.zeros(3))
 
     @cached_property
     def _speed_steps(self) -> np.ndarray:
