@@ -1,7 +1,7 @@
 """The compiled time warps behind :func:`adverbs.graph.clocks.clock_of` and :func:`~adverbs.graph.clocks.generic_of`.
 
 Row by row, the arithmetic of :func:`adverbs.interp.timewarp.clock_time` and
-:func:`~adverbs.interp.timewarp.generic_time` (piecewise linear between keytimes, clipped to the first and last
+:func:`~adverbs.interp.timewarp.generic_time` (a monotone cubic between keytimes, clipped to the first and last
 piece), with whole cycles added for times outside one; a test holds them to the NumPy functions. The graph
 converts between generic and clock time dozens of times a frame for a few creatures at a time, where NumPy's
 per-call cost is the whole cost.
@@ -14,6 +14,7 @@ import math
 from numba import njit
 
 from ..feet._planting_scalars import hold_mode
+from ..interp._warp_scalars import unwarp, warp
 
 
 @njit(cache=True)
@@ -29,14 +30,7 @@ def clock_rows(g, keytimes, generic, out):  # pragma: no cover - compiled
 def _clock(g, keytimes, generic, n):  # pragma: no cover - compiled
     """Clock time of generic time ``g`` under one row of ``keytimes (N,)``."""
     lap = math.floor(g)
-    t = g - lap
-    m = 0
-    for k in range(1, n - 1):
-        if generic[k] <= t:
-            m += 1
-    m = min(max(m, 0), n - 2)
-    k0, k1 = keytimes[m], keytimes[m + 1]
-    return (k0 + (t - generic[m]) / (generic[m + 1] - generic[m]) * (k1 - k0)) + lap * keytimes[n - 1]
+    return unwarp(keytimes, generic, n, g - lap) + lap * keytimes[n - 1]
 
 
 @njit(cache=True)
@@ -53,14 +47,7 @@ def _generic(clock, keytimes, generic, n):  # pragma: no cover - compiled
     """Generic time of clock time ``clock`` under one row of ``keytimes (N,)``."""
     end = keytimes[n - 1]
     lap = math.floor(clock / end)
-    c = clock - lap * end
-    m = 0
-    for k in range(1, n - 1):
-        if keytimes[k] <= c:
-            m += 1
-    m = min(max(m, 0), n - 2)
-    k0, k1 = keytimes[m], keytimes[m + 1]
-    return (generic[m] + (generic[m + 1] - generic[m]) * (c - k0) / (k1 - k0)) + lap
+    return warp(keytimes, generic, n, clock - lap * end) + lap
 
 
 @njit(cache=True)

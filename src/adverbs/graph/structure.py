@@ -25,6 +25,7 @@ import numpy as np
 
 from ..errors import AdverbsError
 from ..feet.planter import effector_joints
+from ..interp.timewarp import generic_time
 from ..kinematics.fk import path_to
 from ..verb.tables import Verb
 
@@ -41,7 +42,7 @@ def loop_region(verb: Verb) -> tuple[float, float]:
     over the last quarter of generic time would be that short.
     """
     k = verb.keytimes(verb.points.mean(axis=0))
-    return float(np.interp((1.0 - LOOP) * k[-1], k, verb.generic_keytimes)), 1.0
+    return float(generic_time((1.0 - LOOP) * k[-1], k, verb.generic_keytimes)), 1.0
 
 
 @dataclass(frozen=True)

@@ -10,6 +10,7 @@ import math
 
 import numpy as np
 from numba import njit
+from ..interp._warp_scalars import warp
 
 GENERIC, CYCLIC, ONE_SHOT = 0, 1, 2  # what the times are: generic times, clock times of a cycle or of a one-shot
 CYCLE_EPS = 1e-9  # a time within this fraction of a cycle past its end still belongs to that cycle
@@ -165,11 +166,7 @@ def phase(keytimes, generic, c, clock, mode, window, ncp, blend):  # pragma: no 
             s = min(max(local / (window * end), 0.0), 1.0)
             fade = 1.0 - s * s * (3.0 - 2.0 * s)
             vfade = fade - 3.0 * s * (1.0 - s)
-        m = 0
-        while m < nk - 2 and keytimes[c, m + 1] <= local:
-            m += 1
-        k0 = keytimes[c, m]
-        t = generic[m] + (generic[m + 1] - generic[m]) * (local - k0) / (keytimes[c, m + 1] - k0)
+        t = warp(keytimes[c], generic, nk, local)
     u = min(max(t, 0.0), 1.0) * (ncp - 3)
     seg = min(int(math.floor(u)), ncp - 4)
     x = u - seg

@@ -43,7 +43,7 @@ from .synthesis import MAX_FPS
 from .tables import TIMINGS, Adverb, ExampleRecord, Verb
 
 FORMAT = "adverbs-verb"  # 2 added keytime names, constraints, floor; 3 generic keytimes, smoothing; 4 holds; 5 goal; 6 timing
-VERSION = 6
+VERSION = 7
 
 # The arrays of a verb file: member name (without ".npy") → (element kind, number of axes).
 ARRAYS = {
