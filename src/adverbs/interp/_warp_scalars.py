@@ -10,6 +10,8 @@ import math
 from numba import njit
 
 RAMP = 0.25  # the fraction of a keytime's shorter piece over which the warp's rate turns there (timewarp)
+EXCESS = 0.05  # ... and no longer than puts more than this fraction of either piece's generic stretch off its own rate
+TINY = 1e-300  # (a keytime whose rate is a piece's own puts none off it)
 
 
 @njit(cache=True, inline="always")
@@ -23,7 +25,8 @@ def slope(keytimes, generic, n, m):  # pragma: no cover - compiled
     ga = generic[a + 1] - generic[a]
     gb = generic[b + 1] - generic[b]
     d = (ga * hb / ha + gb * ha / hb) / (ha + hb)
-    return d, RAMP * min(min(ha, hb), min(ga, gb) / d)
+    e = RAMP * min(min(ha, hb), min(ga, gb) / d)
+    return d, min(e, EXCESS * ga / max(abs(d - ga / ha), TINY), EXCESS * gb / max(abs(d - gb / hb), TINY))
 
 
 @njit(cache=True, inline="always")

@@ -31,7 +31,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import AdverbsError
-from ._warp_scalars import RAMP
+from ._warp_scalars import EXCESS, RAMP, TINY
 
 
 def check_keytimes(keytimes: np.ndarray, what: str = "keytimes") -> np.ndarray:
@@ -88,16 +88,22 @@ def slopes(keytimes: np.ndarray, generic: np.ndarray) -> tuple[np.ndarray, np.nd
     A keytime's rate is the mean of its two pieces' rates, each weighted by the other's length, so the shorter piece's
     counts the more: a piece much shorter than both its neighbours (a run's frame-long flight) keeps nearly the
     paper's line. (The shorter piece's rate alone jumps where two pieces pass each other in length: a walk's two
-    steps, equal to a rounding, played at an example point 3 mm off the example.) The rate turns over :data:`RAMP` of that shorter piece, and no longer than its
-    longer piece at that rate would take for :data:`RAMP` of its own generic stretch (so every piece's middle rate
-    stays at least three quarters of its own). The first and last keytimes join the last and first pieces, so a cycle's warp
-    turns its seam smoothly too."""
+    steps, equal to a rounding, played at an example point 3 mm off the example.) The rate turns over :data:`RAMP`
+    of the shorter piece, no longer than either piece at that rate would take for :data:`RAMP` of its own generic
+    stretch (so every piece's middle rate stays at least three quarters of its own), and no longer than puts
+    :data:`EXCESS` of either piece's generic stretch off its own rate: where a piece half a frame long meets one
+    twelve frames long (toe-offs as keytimes, evenly spaced), a quarter of the short one's length at nearly its rate
+    took an eighth of the long one's stretch within a frame, and the fit strayed between frames at 2.5x the
+    examples' speed (the CMU walk; 1.44x under the paper's warp). The first and last keytimes join the last and
+    first pieces, so a cycle's warp turns its seam smoothly too."""
     h = np.diff(keytimes, axis=-1)
     gap = np.broadcast_to(np.diff(generic), h.shape)
     hs = np.concatenate([h[..., -1:], h], axis=-1), np.concatenate([h, h[..., :1]], axis=-1)
     gs = np.concatenate([gap[..., -1:], gap], axis=-1), np.concatenate([gap, gap[..., :1]], axis=-1)
     d = (gs[0] * hs[1] / hs[0] + gs[1] * hs[0] / hs[1]) / (hs[0] + hs[1])
-    return d, RAMP * np.minimum(np.minimum(hs[0], hs[1]), np.minimum(gs[0], gs[1]) / d)
+    e = RAMP * np.minimum(np.minimum(hs[0], hs[1]), np.minimum(gs[0], gs[1]) / d)
+    off = [EXCESS * g / np.maximum(np.abs(d - g / h), TINY) for g, h in zip(gs, hs)]
+    return d, np.minimum(np.minimum(e, off[0]), off[1])
 
 
 def _piece(keytimes: np.ndarray, g: np.ndarray, m: np.ndarray):
