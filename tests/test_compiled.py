@@ -22,15 +22,16 @@ def test_every_cached_kernel_is_in_a_kernel_file():
     assert len(named) >= 9
 
 
-def _call(root: Path, refresh: bool) -> int:
-    """``g()`` of the package ``pkg`` under ``root``, in a new process (numba loads its cache there)."""
+def _call(root: Path, refresh: bool, cache: Path | None = None) -> int:
+    """``g()`` of the package ``pkg`` under ``root``, in a new process (numba loads its cache there, or under
+    ``cache`` as ``NUMBA_CACHE_DIR``, where the refresh's stamp goes too)."""
     code = "from pkg._b_kernel import g; print(g())"
     if refresh:
-        code = (
-            "from pathlib import Path; from adverbs.compiled import refresh; "
-            f"refresh(Path({str(root / 'pkg')!r}), Path({str(root / 'stamp')!r})); " + code
-        )
+        stamp = "None" if cache else f"Path({str(root / 'stamp')!r})"
+        code = f"from pathlib import Path; from adverbs.compiled import refresh; refresh(Path({str(root / 'pkg')!r}), {stamp}); {code}"
     env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    if cache:
+        env["NUMBA_CACHE_DIR"] = str(cache)
     out = subprocess.run([sys.executable, "-c", code], cwd=root, env=env, capture_output=True, text=True, check=True)
     return int(out.stdout.split()[-1])
 
@@ -53,7 +54,32 @@ def test_a_callee_changed_alone_is_compiled_afresh(tmp_path):
     assert _call(tmp_path, refresh=True) == 11
 
 
-def test_refresh_deletes_only_numba_s_files_and_only_on_a_change(tmp_path):
+def test_a_callee_changed_alone_is_compiled_afresh_where_numba_caches_elsewhere(tmp_path, monkeypatch):
+    """Under ``NUMBA_CACHE_DIR`` numba keeps its cache in a folder of that directory named after the source's folder;
+    nothing was refreshed there until session 61, and a changed callee ran old in its callers (a helper's worktree
+    measured the warp's old arithmetic). The stamp and the deleted kernels are now there."""
+    from numba.core.caching import _CacheLocator
+
+    pkg, cache = tmp_path / "pkg", tmp_path / "cache"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "_a_scalars.py").write_text(SCALARS.format(1))
+    (pkg / "_b_kernel.py").write_text(KERNEL)
+    assert _call(tmp_path, refresh=False, cache=cache) == 2
+    kernel = pkg / "_b_kernel.py"
+    assert compiled.numba_folder(kernel, str(cache)) == cache / _CacheLocator.get_suitable_cache_subpath(str(kernel))
+    assert compiled.cached(compiled.kernel_files(pkg), str(cache)) and not compiled.cached(compiled.kernel_files(pkg))
+    time.sleep(0.01)
+    (pkg / "_a_scalars.py").write_text(SCALARS.format(10))
+    assert _call(tmp_path, refresh=False, cache=cache) == 2  # numba alone: the old callee
+    assert _call(tmp_path, refresh=True, cache=cache) == 11
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(cache))
+    assert compiled.refresh(pkg) is False  # stamped there: nothing more to do
+    assert len(list(cache.glob("adverbs-kernels-*.sha256"))) == 2  # pkg's, and adverbs' own (refreshed on import)
+
+
+def test_refresh_deletes_only_numba_s_files_and_only_on_a_change(tmp_path, monkeypatch):
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)  # (numba's cache beside the sources)
     pkg = tmp_path / "pkg"
     (pkg / "sub" / "__pycache__").mkdir(parents=True)
     (pkg / "sub" / "_x_kernel.py").write_text("x = 1\n")

@@ -11,9 +11,10 @@ caller's cached machine code would still run the old callee, silently.
 and, when the hash differs from the one stamped beside the cache, deletes the cached kernels of every one of
 them, so numba compiles them afresh once. It costs about a millisecond when nothing changed. Kernel
 files are named ``_*kernel.py`` or ``_*scalars.py``, in a layer's folder (``tests/test_compiled.py`` checks that every
-``cache=True`` function lives in one). Nothing is done where numba keeps its cache elsewhere
-(``NUMBA_CACHE_DIR``) or the package's folder cannot be written (numba then caches per user, and an install
-writes every file anew).
+``cache=True`` function lives in one). Where numba keeps its cache elsewhere (``NUMBA_CACHE_DIR``) the stamp and the
+deleted kernels are there (until session 61 nothing was done then, and a change to a callee's file left its callers'
+old machine code running). Nothing is done where the folder cannot be written (numba then caches per user, and an
+install writes every file anew).
 
 :func:`one_blas_thread` runs a block with OpenBLAS (numpy's and scipy's, which numba's ``np.dot`` calls) on
 one thread. The sampling kernel groups a crowd's queries by B-spline segment into products of a few hundred rows
@@ -53,28 +54,40 @@ def sources_hash(files: list[Path]) -> str:
     return h.hexdigest()
 
 
-def cached(files: list[Path]) -> list[Path]:
-    """numba's cache files (index and data) of the functions in ``files``."""
+def numba_folder(source: Path, where: str | None) -> Path:
+    """Where numba caches the functions of ``source``: its ``__pycache__``, or under ``where`` (``NUMBA_CACHE_DIR``)
+    a folder named after the source's folder and the SHA-1 of its path (numba's ``_CacheLocator``'s subpath)."""
+    if not where:
+        return source.parent / "__pycache__"
+    folder = os.path.dirname(os.path.abspath(source))
+    return Path(where) / f"{os.path.split(folder)[-1]}_{hashlib.sha1(folder.encode()).hexdigest()}"
+
+
+def cached(files: list[Path], where: str | None = None) -> list[Path]:
+    """numba's cache files (index and data) of the functions in ``files``, cached beside them or under ``where``."""
     out = []
     for f in files:
-        folder = f.parent / "__pycache__"
+        folder = numba_folder(f, where)
         if folder.is_dir():
             out += [p for p in folder.glob(f"{f.stem}.*") if p.suffix in (".nbi", ".nbc")]
     return out
 
 
-def refresh(package: Path = PACKAGE, stamp: Path = STAMP) -> bool:
-    """Delete every cached kernel if any kernel file changed since the cache was stamped; True if it did."""
-    if os.environ.get("NUMBA_CACHE_DIR"):
-        return False
+def refresh(package: Path = PACKAGE, stamp: Path | None = None) -> bool:
+    """Delete every cached kernel if any kernel file changed since the cache was stamped; True if it did. Where
+    numba caches under ``NUMBA_CACHE_DIR``, the stamp (one per package folder) and the cached kernels are there."""
+    where = os.environ.get("NUMBA_CACHE_DIR") or None
+    if stamp is None:
+        name = hashlib.sha1(str(package.resolve()).encode()).hexdigest()
+        stamp = Path(where) / f"adverbs-kernels-{name}.sha256" if where else STAMP
     try:
         files = kernel_files(package)
         digest = sources_hash(files)
         if stamp.is_file() and stamp.read_text(encoding="ascii").strip() == digest:
             return False
-        for p in cached(files):
+        for p in cached(files, where):
             p.unlink(missing_ok=True)
-        stamp.parent.mkdir(exist_ok=True)
+        stamp.parent.mkdir(parents=True, exist_ok=True)
         tmp = stamp.with_name(f"{stamp.name}.{os.getpid()}")
         tmp.write_text(digest + "\n", encoding="ascii")
         os.replace(tmp, stamp)
