@@ -8,12 +8,12 @@ them linearly in between,
 whose rate dt/dT changes in a step at each keytime. Any curve fitted in generic time then changes its
 velocity in clock time in one frame there: a joint's turn, and the hips over the feet of a verb that stands on
 them (a bow's, 1.42 m/s² in one frame at a keytime, its capture's hips 0.58; session 60, measured). Here the rate
-is continuous (the warp is C¹): at keytime ``m`` it is the rate of the shorter of the two pieces it joins
-(:func:`slopes`), and near it each piece's rate turns linearly between that and its own middle rate, which is set so
-the piece still takes ``G_{m+1} − G_m`` in ``K_{m+1} − K_m`` (piecewise quadratic; its inverse is closed-form). The
-turn takes :data:`RAMP` of the shorter piece, so a piece shorter than both its neighbours (a run's frame-long flight)
-keeps the paper's line, and a long piece's middle runs at one rate as the paper's does. Keytime ``m`` is still generic
-time ``G_m`` at every point.
+is continuous (the warp is C¹): at keytime ``m`` it is a mean of the rates of the two pieces it joins, weighted
+towards the shorter one's (:func:`slopes`), and near it each piece's rate turns linearly between that and its own
+middle rate, which is set so the piece still takes ``G_{m+1} − G_m`` in ``K_{m+1} − K_m`` (piecewise quadratic; its
+inverse is closed-form). The turn takes at most :data:`RAMP` of the shorter piece, so a piece much shorter than both
+its neighbours (a run's frame-long flight) keeps nearly the paper's line, and each piece's middle runs at one rate as
+the paper's does. Keytime ``m`` is still generic time ``G_m`` at every point.
 
 The paper spaces the generic keytimes evenly, ``G_m = (m − 1) / (N − 1)`` (the default here). Any
 strictly increasing ``G`` shared by every example keeps what matters — keytime ``m`` is the same
