@@ -1,8 +1,8 @@
 """The compiled time warps behind :func:`adverbs.graph.clocks.clock_of` and :func:`~adverbs.graph.clocks.generic_of`.
 
 Row by row, the arithmetic of :func:`adverbs.interp.timewarp.clock_time` and
-:func:`~adverbs.interp.timewarp.generic_time` (a monotone cubic between keytimes, clipped to the first and last
-piece), with whole cycles added for times outside one; a test holds them to the NumPy functions. The graph
+:func:`~adverbs.interp.timewarp.generic_time` (piecewise quadratic between keytimes, its rate continuous:
+:mod:`adverbs.interp._warp_scalars`), with whole cycles added for times outside one; a test holds them to the NumPy functions. The graph
 converts between generic and clock time dozens of times a frame for a few creatures at a time, where NumPy's
 per-call cost is the whole cost.
 """
