@@ -28,7 +28,9 @@ def _call(root: Path, refresh: bool, cache: Path | None = None) -> int:
     code = "from pkg._b_kernel import g; print(g())"
     if refresh:
         stamp = "None" if cache else f"Path({str(root / 'stamp')!r})"
-        code = f"from pathlib import Path; from adverbs.compiled import refresh; refresh(Path({str(root / 'pkg')!r}), {stamp}); {code}"
+        pkg = str(root / "pkg")
+        call = f"refresh(Path({pkg!r}), {stamp}); "
+        code = "from pathlib import Path; from adverbs.compiled import refresh; " + call + code
     env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
     if cache:
         env["NUMBA_CACHE_DIR"] = str(cache)

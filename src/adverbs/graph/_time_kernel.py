@@ -2,9 +2,9 @@
 
 Row by row, the arithmetic of :func:`adverbs.interp.timewarp.clock_time` and
 :func:`~adverbs.interp.timewarp.generic_time` (piecewise quadratic between keytimes, its rate continuous:
-:mod:`adverbs.interp._warp_scalars`), with whole cycles added for times outside one; a test holds them to the NumPy functions. The graph
-converts between generic and clock time dozens of times a frame for a few creatures at a time, where NumPy's
-per-call cost is the whole cost.
+:mod:`adverbs.interp._warp_scalars`), with whole cycles added for times outside one; a test holds them to the NumPy
+functions. The graph converts between generic and clock time dozens of times a frame for a few creatures at a
+time, where NumPy's per-call cost is the whole cost.
 """
 
 from __future__ import annotations

@@ -1,6 +1,7 @@
-"""The time warp of one row of keytimes, for the compiled loops: the sampler's :func:`adverbs.verb._sampling_kernel.phase`
-and the graph's clocks (:mod:`adverbs.graph._time_kernel`). Each mirrors the NumPy arithmetic of
-:mod:`adverbs.interp.timewarp` (named in its docstring) in the same order; a test holds them equal.
+"""The time warp of one row of keytimes, for the compiled loops: the sampler's
+:func:`adverbs.verb._sampling_kernel.phase` and the graph's clocks (:mod:`adverbs.graph._time_kernel`). Each
+mirrors the NumPy arithmetic of :mod:`adverbs.interp.timewarp` (named in its docstring) in the same order; a test
+holds them equal.
 """
 
 from __future__ import annotations

@@ -123,7 +123,8 @@ def _piece(keytimes: np.ndarray, g: np.ndarray, m: np.ndarray):
 
 
 def _root(d, c, e, x):
-    """The ``s ≥ 0`` of ``s (d + (c − d) s / 2e) = x``: how long a ramp from rate ``d`` to ``c`` takes to cover ``x``."""
+    """The ``s ≥ 0`` of ``s (d + (c − d) s / 2e) = x``: how long a ramp from rate ``d`` to ``c`` takes to cover
+    ``x``."""
     return 2.0 * x / (d + np.sqrt(np.maximum(d * d + 2.0 * (c - d) * x / e, 0.0)))
 
 

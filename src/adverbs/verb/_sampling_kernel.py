@@ -10,6 +10,7 @@ import math
 
 import numpy as np
 from numba import njit
+
 from ..interp._warp_scalars import warp
 
 GENERIC, CYCLIC, ONE_SHOT = 0, 1, 2  # what the times are: generic times, clock times of a cycle or of a one-shot

@@ -42,7 +42,8 @@ from .sampling import LONGEST_CYCLE
 from .synthesis import MAX_FPS
 from .tables import TIMINGS, Adverb, ExampleRecord, Verb
 
-FORMAT = "adverbs-verb"  # 2 added keytime names, constraints, floor; 3 generic keytimes, smoothing; 4 holds; 5 goal; 6 timing
+FORMAT = "adverbs-verb"  # 2 added keytime names, constraints, floor; 3 generic keytimes, smoothing; 4 holds; 5 goal;
+# 6 timing; 7 the time warp's rate continuous (curves fitted under the paper's warp play differently)
 VERSION = 7
 
 # The arrays of a verb file: member name (without ".npy") → (element kind, number of axes).
