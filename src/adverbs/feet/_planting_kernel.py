@@ -299,6 +299,8 @@ def _advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, examples
             height = 0.0 if follows else heights[i]
             lift, tn, fp, fr = lifts[i], turns[i], free_pos[c, i], free_rot[c, i]
             for a in range(3):
+                if since[c, i, a] < 0.0:  # an offset not yet begun holds the foot where it is (FootPlanter.targets)
+                    offset[c, i, a] -= fp[a] - prev_free[c, i, a]
                 since[c, i, a] += d
                 vel[a] = (fp[a] - prev_free[c, i, a]) / (d if d > 0 else np.inf)
             m, gr = mode[c, i], ground[c, i]

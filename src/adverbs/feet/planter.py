@@ -32,7 +32,8 @@ Per effector, with ``g`` the frame's generic time and :class:`~adverbs.verb.cons
   it is an offset that decays to zero as a critically damped spring (``x(t) = (x₀ + (v₀ + y x₀) t)
   e^{−y t}``). At release ``v₀`` cancels the verb's horizontal foot velocity, so the foot leaves from
   rest, and the vertical part decays faster than the horizontal one, so it lifts before it travels; the
-  turn the foot still had to make decays the same way. At landing nothing slides: only the height settles.
+  turn the foot still had to make decays the same way. An offset set to begin later (a re-placed foot's,
+  ``graph.planted``) holds the foot where it is until then. At landing nothing slides: only the height settles.
   A released foot's height offset is kept over the floor under where it is shown: up a slope, the
   horizontal offset carries it over other ground than the verb's foot is over.
 
@@ -245,6 +246,9 @@ class FootPlanter:
             self.prev_free[:] = free_pos
             self.started = True
         dt = np.broadcast_to(np.asarray(dt, dtype=float), (self.creatures,))[:, None, None]
+        # An offset not yet begun (a re-placed foot before it lifts, ``graph.planted``) holds the foot where it is: it
+        # takes up the verb's motion.
+        self.offset -= np.where(self.since < 0.0, free_pos - self.prev_free, 0.0)
         self.since += dt
         vel = (free_pos - self.prev_free) / np.where(dt > 0, dt, np.inf)
         # A ball the verb lifts off its level rolls the foot off it too, whatever the examples' heel-off says.

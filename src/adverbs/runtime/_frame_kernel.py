@@ -1008,8 +1008,8 @@ def _plant(lo, hi, dt, outputs, planted, feet, start, k_, mix):  # pragma: no co
             if spent[c, i] and mode[c, i] == FREE and held[c, i] and roll[c, i] == 0.0:  # let go, held flat
                 replanting[c, i] = True
             if replanting[c, i] and mode[c, i] == FREE and since[c, i, 1] == 0.0:
-                for a in (0, 2):  # let go this frame: it travels once lifted, at rest until then
-                    offset[c, i, a] += offset_vel[c, i, a] * k_[_DELAY]
+                for a in (0, 2):  # let go this frame: it travels once lifted, held where it is until then
+                    offset_vel[c, i, a] = 0.0
                     since[c, i, a] = -k_[_DELAY]
             if replanting[c, i]:
                 # Settled once the free rule's offset (FootPlanter._offset) has decayed to REPLANTED.
