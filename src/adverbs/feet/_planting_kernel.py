@@ -39,16 +39,18 @@ FREE, HEEL, BALL = 0, 1, 2  # planting.FREE, HEEL, BALL
 # Where each constant sits in ``k_`` (see constants()).
 _SWING, _LN2, _OFFSET, _SETTLE, _CLEARANCE, _STILL_DOWN, _LIFTS_OFF, _TOE_LANDS, _FADE = 0, 1, 2, 5, 6, 7, 8, 9, 10
 _SWING_LIFT, _LIFT_BLEND, _HEEL_LIFT, _HEEL_STEEPEST, _INSIDE, _TRAILING, _SLACK, _RISE = 11, 12, 13, 14, 15, 16, 17, 18
+_LANDING = 19
 
 
 def constants(swing, ln2, halflives, settle, clearance, still_down, lifts_off, toe_lands, drop_halflife, swing_lift,
-              lift_blend, heel_lift, heel_steepest, inside, trailing, slack, rise):  # fmt: skip
+              lift_blend, heel_lift, heel_steepest, inside, trailing, slack, rise, landing):  # fmt: skip
     """``k_``: ``SWING_HALFLIFE``, ln 2, the free offset's half-lives ``(3,)``, ``SETTLE_HALFLIFE``,
     ``SWING_CLEARANCE``, ``STILL_DOWN``, ``LIFTS_OFF``, ``TOE_LANDS``, ln 2 / ``DROP_HALFLIFE``, ``SWING_LIFT``,
-    ``LIFT_BLEND``, ``HEEL_LIFT``, ``HEEL_STEEPEST``, ``INSIDE``, ``TRAILING``, ``EXAMPLE_SLACK`` and ``RISE``."""
+    ``LIFT_BLEND``, ``HEEL_LIFT``, ``HEEL_STEEPEST``, ``INSIDE``, ``TRAILING``, ``EXAMPLE_SLACK``, ``RISE`` and
+    ``LANDING``."""
     return np.array([
         swing, ln2, *halflives, settle, clearance, still_down, lifts_off, toe_lands, ln2 / drop_halflife, swing_lift,
-        lift_blend, heel_lift, heel_steepest, inside, trailing, slack, rise,
+        lift_blend, heel_lift, heel_steepest, inside, trailing, slack, rise, landing,
     ])  # fmt: skip
 
 
@@ -236,26 +238,27 @@ def _land(c, i, point, height, floor, state):
 
 
 @njit(cache=True, _nrt=True)  # allocates: counts even when its caller is compiled without counting
-def advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, examples_in, eased_in, use_phases, dt, start,
-            times, cyclic, verb_floor, legs, k_, floor, state, shown_out, wanted_out):  # fmt: skip
+def advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, examples_in, eased_in, hold_in, use_phases, dt,
+            start, times, cyclic, verb_floor, legs, k_, floor, state, shown_out, wanted_out):  # fmt: skip
     """``FootPlanter.targets_reference``: every creature's effectors advanced by one frame (``state`` in place);
     their targets into ``shown_out (C, L, 3)`` and wanted orientations into ``wanted_out (C, L, 3, 3)``.
 
     ``generic (C,)`` or, with ``use_phases``, ``inside_in``, ``turn_in``, ``swing_in``, ``examples_in (C, L)`` (the
-    examples' lifts, ``-inf`` for none; without phases, none) and ``eased_in (C,)`` (their share under a decaying
-    offset, 1 for none); ``dt (C,)``; ``start``: the first frame (the contact levels from the feet that are down);
-    ``times (C, L, 3)``: the holds' times.
+    examples' lifts, ``-inf`` for none; without phases, none), ``eased_in (C,)`` (their share under a decaying
+    offset, 1 for none) and ``hold_in (C, L)`` (whether the verbs hold each foot, where ``inside_in`` may keep one
+    free: a re-placed foot, which does not land early); ``dt (C,)``; ``start``: the first frame (the contact levels
+    from the feet that are down); ``times (C, L, 3)``: the holds' times.
     """
     n_l = free_pos.shape[1]
     inside = np.empty(n_l, dtype=np.bool_)
     buf = np.empty(3 * n_l + 4 * 3 + 4 + 3 * 9 + 4 * 9 + 2 * 4)
-    _advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, examples_in, eased_in, use_phases, dt, start,
-             times, cyclic, verb_floor, legs, k_, floor, state, shown_out, wanted_out, inside, buf)  # fmt: skip
+    _advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, examples_in, eased_in, hold_in, use_phases, dt,
+             start, times, cyclic, verb_floor, legs, k_, floor, state, shown_out, wanted_out, inside, buf)  # fmt: skip
 
 
 @njit(cache=True, _nrt=False)
-def _advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, examples_in, eased_in, use_phases, dt, start,
-             times, cyclic, verb_floor, legs, k_, floor, state, shown_out, wanted_out, inside, buf):  # fmt: skip
+def _advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, examples_in, eased_in, hold_in, use_phases, dt,
+             start, times, cyclic, verb_floor, legs, k_, floor, state, shown_out, wanted_out, inside, buf):  # fmt: skip
     """:func:`advance` in its working arrays ``inside (L,)`` and ``buf`` (not counted: see ``_frame_kernel``)."""
     mode, turn, _, held_rot, offset, offset_vel, since, spent, rising, rel_vec, rot_since, settle = state[:12]
     hover, ground, prev_free, kept = state[12], state[13], state[14], state[17]
@@ -303,6 +306,11 @@ def _advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, examples
                     offset[c, i, a] -= fp[a] - prev_free[c, i, a]
                 since[c, i, a] += d
                 vel[a] = (fp[a] - prev_free[c, i, a]) / (d if d > 0 else np.inf)
+            # Landing early under a decaying offset, coming down (FootPlanter.targets).
+            early = use_phases and eased_in[c] < 1.0 and not hold_in[c, i] and 0.0 < swings[i] < 1.0 and lift < 0.0
+            early = early and not follows and (mode[c, i] != FREE or vel[1] < -k_[_LANDING])
+            if early:
+                inside[i], tn = True, 0.0
             m, gr = mode[c, i], ground[c, i]
             # Held, over the level this hold has found so far; a ball the verb lifts off it rolls the foot off.
             level = min(gr, lift) if m != FREE and math.isfinite(gr) else hover[c, i]
@@ -331,7 +339,7 @@ def _advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, examples
                 swung += _ramp(below, k_[_LIFT_BLEND])
             # (Not for a foot about to land; one its verbs hold past heel-off while still in the air is lifting.)
             lifting = held and m == FREE and tn > 0.0 and swings[i] > 0.0
-            least = -np.inf if follows or (held and not lifting) else k_[_SWING_LIFT] * swings[i]
+            least = -np.inf if follows or (held and not lifting and not early) else k_[_SWING_LIFT] * swings[i]
             up = _smooth_max(swung, least, k_[_LIFT_BLEND])
             base[0], base[1], base[2] = fp[0], _height(floor, fp[0], fp[2]) + height + up, fp[2]
             _tilt(floor, base[0], base[2], s[0])
@@ -517,8 +525,9 @@ def _reach(hips, rises, targets, wanted, dt, tip, axis, reach_, max_drop, k_, st
 
 
 @njit(cache=True, _nrt=True)  # allocates: counts even when its caller is compiled without counting
-def step(parents, rotations, translations, generic, inside_in, turn_in, swing_in, examples_in, eased_in, use_phases, dt,
-         start, times, cyclic, verb_floor, tips, root, legs, k_, floor, state, chain, ik_params, out):  # fmt: skip
+def step(parents, rotations, translations, generic, inside_in, turn_in, swing_in, examples_in, eased_in, hold_in,
+         use_phases, dt, start, times, cyclic, verb_floor, tips, root, legs, k_, floor, state, chain, ik_params,
+         out):  # fmt: skip
     """``FootPlanter.step_reference`` of ``C`` creatures' poses ``rotations (C, J, 4)``, ``translations (C, J, 3)``,
     planted in place: FK, :func:`advance`, :func:`rise`, :func:`reach`, the pelvis raised
     (``planting._ride_floor``), the feet's tilts (``FootPlanter._tilts``), then the IK
@@ -532,13 +541,14 @@ def step(parents, rotations, translations, generic, inside_in, turn_in, swing_in
     """
     buf = np.empty(rotations.shape[0] * (24 * len(tips) + 1))
     return _step(parents, rotations, translations, generic, inside_in, turn_in, swing_in, examples_in, eased_in,
-                 use_phases, dt, start, times, cyclic, verb_floor, tips, root, legs, k_, floor, state, chain, ik_params,
-                 out, buf)  # fmt: skip
+                 hold_in, use_phases, dt, start, times, cyclic, verb_floor, tips, root, legs, k_, floor, state, chain,
+                 ik_params, out, buf)  # fmt: skip
 
 
 @njit(cache=True, _nrt=False)
-def _step(parents, rotations, translations, generic, inside_in, turn_in, swing_in, examples_in, eased_in, use_phases, dt,
-          start, times, cyclic, verb_floor, tips, root, legs, k_, floor, state, chain, ik_params, out, buf):  # fmt: skip
+def _step(parents, rotations, translations, generic, inside_in, turn_in, swing_in, examples_in, eased_in, hold_in,
+          use_phases, dt, start, times, cyclic, verb_floor, tips, root, legs, k_, floor, state, chain, ik_params, out,
+          buf):  # fmt: skip
     """:func:`step` in its working array ``buf`` (not counted: see ``runtime._frame_kernel``)."""
     above, upper, middle, end, hinge, upper_offset, end_offset, path, reach_ = chain
     min_flex, converged, max_drop = ik_params
@@ -557,8 +567,8 @@ def _step(parents, rotations, translations, generic, inside_in, turn_in, swing_i
                 free_pos[c, i, a] = gpos[c, tips[i], a]
                 hips[c, i, a] = gpos[c, upper[i], a]
             _quat_to_mat(grot[c, end[i]], free_rot[c, i])
-    advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, examples_in, eased_in, use_phases, dt, start,
-            times, cyclic, verb_floor, legs, k_, floor, state, targets, wanted)  # fmt: skip
+    advance(free_pos, free_rot, generic, inside_in, turn_in, swing_in, examples_in, eased_in, hold_in, use_phases, dt,
+            start, times, cyclic, verb_floor, legs, k_, floor, state, targets, wanted)  # fmt: skip
     rise(gpos[:, root], targets, verb_floor, floor, rises)
     reach(hips, rises, targets, wanted, dt, tip, legs[4], reach_, max_drop, k_, state)
     pelvis = above[len(above) - 1]

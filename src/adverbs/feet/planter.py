@@ -18,6 +18,9 @@ Per effector, with ``g`` the frame's generic time and :class:`~adverbs.verb.cons
 * **Roll-off** (from ``h.heel_off``, or as soon as the verb lifts the ball off its own level): the foot
   turns back to the verb's orientation about the held ball (smoothstep), the ball rising as the verb
   raises it; it is let go at ``h.close`` (toe-off), or once the verb has lifted it ``LIFTS_OFF``.
+* **Landing early** (under a decaying offset of the whole pose, a blend's): a foot in the landing end of its
+  swing that the verbs already have under its contact height lands from there, as at a hold, though theirs has
+  not opened; it came down at the offset's speed as well as the verb's.
 * **Free** (swing, flight): the verb's effector, lowered near the ground by how far the verb's stance
   hovered over its floor (at extrapolated adverbs the verb can lift the whole stance), never below the
   floor plus the contact height. The verb's level is the lowest its foot got over the hold (rolling off
@@ -81,6 +84,7 @@ _HALFLIVES = np.array([SWING_HALFLIFE, LIFT_HALFLIFE, SWING_HALFLIFE])
 _AT_REST = np.array([1.0, 0.0, 1.0])  # which parts of the verb's velocity a released foot starts without
 FREE, HEEL, BALL = 0, 1, 2  # what a foot is doing: swinging, landed on its heel, on its ball
 SWING_CLEARANCE = 0.1  # metres above the verb's own contact level where its swing is no longer lowered
+LANDING = 0.1  # m/s: a foot coming down faster than this under a decaying offset can land early (targets)
 LIFTED = 0.02  # metres above its contact height: a released foot this high has left the ground
 SWING_LIFT = 0.03  # metres: the least a cyclic verb's swing lifts a released ball over its contact height
 LIFT_BLEND = 0.02  # metres: within this of the least lift, the verb's swing joins it smoothly (no kink)
@@ -209,8 +213,9 @@ class FootPlanter:
         include the floor's tilt. ``phases``: instead of ``generic``, whether each hold is open ``(C, L)``, how
         far each foot has rolled off ``(C, L)`` and, optionally, how much of the least swing lift applies
         ``(C, L)`` (:func:`swing_lifts`; none if not given), the examples' lift ``(C, L)`` (:func:`example_lifts`;
-        none if not given) and, optionally, the share ``(C,)`` of it a decaying offset leaves (``Frame.eased``; 1:
-        all of it), from elsewhere (a verb graph's blend of two verbs). Given ``generic``, the examples'
+        none if not given), optionally, the share ``(C,)`` of it a decaying offset leaves (``Frame.eased``; 1:
+        all of it) and whether the verbs hold each foot ``(C, L)`` where the first keeps one free (a re-placed foot,
+        which does not land early; the first if not given), from elsewhere (a verb graph's blend of two verbs). Given ``generic``, the examples'
         lift is not kept: a verb sampled by its clock fades each later cycle's seam, which its examples' lifts do
         not follow.
 
@@ -219,8 +224,8 @@ class FootPlanter:
         is higher, and never over the whole lift. Kept over the share alone, a walk -> run cut short by a command
         (the run played at once under the offset of the walk's pose) brought the swinging foot down early: the offset
         took the run's foot 30-45 mm under the floor and it skimmed it at 3-7 m/s, 24-187 mm over the walk's and the
-        run's own low travel in 10 of 14 random scripts (2 now, the same 24 and 39 mm). Kept over the whole lift, a
-        foot the walk had just lifted jumped from 12 to 82 mm in one frame.
+        run's own low travel in 10 of 14 random scripts (then 2, 28 and 40 mm: none since feet land early, below).
+        Kept over the whole lift, a foot the walk had just lifted jumped from 12 to 82 mm in one frame.
         """
         verb, floor, tip = self.verb, self.floor, self.chains.tip_offset
         follows = np.broadcast_to(np.isnan(self.heights), self.mode.shape)  # effectors that keep the verb's height
@@ -237,6 +242,9 @@ class FootPlanter:
         eased = np.ones((self.creatures, 1))  # the examples' lift's share under a decaying offset (Frame.eased)
         if phases is not None and len(phases) > 4 and phases[4] is not None:
             eased = np.asarray(phases[4], dtype=float)[:, None]
+        hold = inside  # the verbs' own holds, where phases keep a foot free while they hold it (a re-placed one)
+        if phases is not None and len(phases) > 5 and phases[5] is not None:
+            hold = np.asarray(phases[5], dtype=bool)
         # How far the verb's effector is above its contact height (its own floor at these adverbs).
         lift = np.where(follows, 0.0, free_pos[..., 1] - verb.floor - height)
         if not self.started:  # the verb's level from the feet that are down now, else none
@@ -251,6 +259,15 @@ class FootPlanter:
         self.offset -= np.where(self.since < 0.0, free_pos - self.prev_free, 0.0)
         self.since += dt
         vel = (free_pos - self.prev_free) / np.where(dt > 0, dt, np.inf)
+        # Landing early: under a decaying offset (``eased`` below 1) the verbs can bring a foot down to the floor before
+        # their hold opens, and it came in low at the offset's speed as well as the verb's (a run after a walk cut
+        # short ran its toe 8 cm along the floor in the frame before its hold). A foot in the landing end of its
+        # swing (``swing`` between 0 and 1) that the verbs have under its contact height lands from there, as at a hold
+        # (on its heel while its toe is up), not rolled.
+        early = (eased < 1.0) & ~hold & (swing > 0.0) & (swing < 1.0) & (lift < 0.0) & ~follows
+        early &= (self.mode != FREE) | (vel[..., 1] < -LANDING)  # coming down (a standing foot re-placed is not)
+        inside = inside | early
+        turn = np.where(early, 0.0, turn)
         # A ball the verb lifts off its level rolls the foot off it too, whatever the examples' heel-off says.
         # Held, over the level this hold has found so far (the lowest the verb's foot got since it landed,
         # rolling off included): the ball rises as far over it as the verb's does, and leaves at that height.
@@ -281,7 +298,7 @@ class FootPlanter:
         # (Not for a foot about to land; but one its verbs hold past heel-off while it is still in the air is lifting:
         # a stop turned back into the walk gave its landing foot the walk's hold, and it dropped 20 mm in a frame.)
         lifting = inside & (self.mode == FREE) & (turn > 0.0) & (swing > 0.0)
-        least = np.where(follows | (inside & ~lifting), -np.inf, SWING_LIFT * swing)
+        least = np.where(follows | (inside & ~lifting & ~early), -np.inf, SWING_LIFT * swing)  # (caught: from where it was)
         base[..., 1] = floor.height(free_pos[..., [0, 2]]) + height + _smooth_max(swung, least, LIFT_BLEND)
         free_wanted = self._tilt(base[..., [0, 2]]) @ free_rot
         self.rot_since += dt[..., 0]
@@ -523,6 +540,7 @@ class _Compiled:
         self.constants = k.constants(
             SWING_HALFLIFE, _LN2, _HALFLIVES, SETTLE_HALFLIFE, SWING_CLEARANCE, STILL_DOWN, LIFTS_OFF, TOE_LANDS,
             DROP_HALFLIFE, SWING_LIFT, LIFT_BLEND, HEEL_LIFT, HEEL_STEEPEST, INSIDE, TRAILING, EXAMPLE_SLACK, RISE,
+            LANDING,
         )  # fmt: skip
         tip = np.ascontiguousarray(chains.tip_offset, dtype=float)
         self.legs = (planter.heights, planter.opens, planter.heel_heights, tip, np.ascontiguousarray(chains.heel_axis))
@@ -539,7 +557,7 @@ class _Compiled:
         self.dt = np.empty(c)
         self.no_generic = np.zeros(c)  # stand-ins for the inputs not given
         self.no_phases = (np.zeros((c, n), dtype=bool), np.zeros((c, n)), np.zeros((c, n)), np.full((c, n), -np.inf),
-                          np.ones(c))  # fmt: skip
+                          np.ones(c), np.zeros((c, n), dtype=bool))  # fmt: skip
         self.scratch: tuple | None = None  # step's arrays that are not returned
 
     def _state(self) -> tuple:
@@ -551,7 +569,7 @@ class _Compiled:
         )  # fmt: skip
 
     def _frame(self, generic, dt, phases) -> tuple:
-        """``generic, inside, turn, swing, examples, eased, use_phases`` as the kernel takes them; ``dt`` into
+        """``generic, inside, turn, swing, examples, eased, hold, use_phases`` as the kernel takes them; ``dt`` into
         ``self.dt``."""
         self.dt[:] = dt
         shape = self.planter.mode.shape
@@ -569,7 +587,10 @@ class _Compiled:
         eased = self.no_phases[4] if len(phases) < 5 or phases[4] is None else np.asarray(phases[4], dtype=float)
         if eased.shape != shape[:1] or not eased.flags.c_contiguous:
             eased = np.ascontiguousarray(np.broadcast_to(eased, shape[:1]))
-        return self.no_generic, inside, turn, swing, examples, eased, True
+        hold = inside if len(phases) < 6 or phases[5] is None else np.asarray(phases[5], dtype=bool)
+        if hold.shape != shape or not hold.flags.c_contiguous:
+            hold = np.ascontiguousarray(np.broadcast_to(hold, shape))
+        return self.no_generic, inside, turn, swing, examples, eased, hold, True
 
     def _times(self) -> np.ndarray:
         """The holds' times ``(C, L, 3)`` (``set_weights`` and ``plant_feet_many`` set them)."""

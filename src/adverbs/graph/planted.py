@@ -172,7 +172,8 @@ def plant(feet: GraphFeet, frame: Frame, dt: float, alone: np.ndarray, standing:
     swinging = np.where(frame.held, 0.0, frame.swing)
     swing = np.where(feet.replanting, _step_lift(p, swinging), frame.swing)  # a foot re-placed steps: at the least lift
     _rebase_hover(feet, frame)
-    out = p.step(frame.rotations, frame.translations, None, dt, (held, frame.roll, swing, frame.lifts, frame.eased))
+    phases = (held, frame.roll, swing, frame.lifts, frame.eased, frame.held)  # (re-placed: the verbs hold, it is free)
+    out = p.step(frame.rotations, frame.translations, None, dt, phases)
     _take_levels(feet, frame)
     # A foot the planter let go out of its leg's reach (``spent``) that the verbs hold flat is re-placed, a step
     # from its release: it stayed free until the verbs' hold ended, and a stand's, a bow's or a guide's never does

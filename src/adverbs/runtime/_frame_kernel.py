@@ -991,8 +991,8 @@ def _plant(lo, hi, dt, outputs, planted, feet, start, k_, mix):  # pragma: no co
     )  # fmt: skip
     out = (scratch[0][s], scratch[1][s], scratch[2][s], scratch[3][s], drop[s], residual[s])
     finite = plant_step(
-        parents, rot[s], trans[s], generic[s], inside[s], roll[s], swing[s], lifts[s], eased[s], True, dts[s], start,
-        times[s], cyclic, verb_floor, tips, root, legs, constants, floor, sliced, chain, ik_params, out,
+        parents, rot[s], trans[s], generic[s], inside[s], roll[s], swing[s], lifts[s], eased[s], held[s], True, dts[s],
+        start, times[s], cyclic, verb_floor, tips, root, legs, constants, floor, sliced, chain, ik_params, out,
     )  # fmt: skip
     turn, target, spent, prev_free = st[1], st[2], st[7], st[14]
     for c in range(lo, hi):
