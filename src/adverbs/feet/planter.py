@@ -215,9 +215,9 @@ class FootPlanter:
         ``(C, L)`` (:func:`swing_lifts`; none if not given), the examples' lift ``(C, L)`` (:func:`example_lifts`;
         none if not given), optionally, the share ``(C,)`` of it a decaying offset leaves (``Frame.eased``; 1:
         all of it) and whether the verbs hold each foot ``(C, L)`` where the first keeps one free (a re-placed foot,
-        which does not land early; the first if not given), from elsewhere (a verb graph's blend of two verbs). Given ``generic``, the examples'
-        lift is not kept: a verb sampled by its clock fades each later cycle's seam, which its examples' lifts do
-        not follow.
+        which does not land early; the first if not given), from elsewhere (a verb graph's blend of two verbs).
+        Given ``generic``, the examples' lift is not kept: a verb sampled by its clock fades each later cycle's seam,
+        which its examples' lifts do not follow.
 
         Under a decaying offset (a share below 1) a free foot is kept over that share of the examples' lift, or over
         a floor rising from where the foot was as the offset began (or as it was let go) at most ``RISE``, whichever
@@ -298,7 +298,8 @@ class FootPlanter:
         # (Not for a foot about to land; but one its verbs hold past heel-off while it is still in the air is lifting:
         # a stop turned back into the walk gave its landing foot the walk's hold, and it dropped 20 mm in a frame.)
         lifting = inside & (self.mode == FREE) & (turn > 0.0) & (swing > 0.0)
-        least = np.where(follows | (inside & ~lifting & ~early), -np.inf, SWING_LIFT * swing)  # (caught: from where it was)
+        # (A foot landing early keeps this frame's least lift: it lands from where it was.)
+        least = np.where(follows | (inside & ~lifting & ~early), -np.inf, SWING_LIFT * swing)
         base[..., 1] = floor.height(free_pos[..., [0, 2]]) + height + _smooth_max(swung, least, LIFT_BLEND)
         free_wanted = self._tilt(base[..., [0, 2]]) @ free_rot
         self.rot_since += dt[..., 0]
