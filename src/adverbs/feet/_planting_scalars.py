@@ -27,9 +27,9 @@ def smoothstep(x):  # pragma: no cover - compiled
 @njit(cache=True, inline="always")
 def spring(x0, v0, t, halflife, ln2):  # pragma: no cover - compiled
     """``planting._spring``: a critically damped offset ``x0`` with velocity ``v0``, ``t`` seconds on (``ln2``: log 2); before it
-    starts (``t < 0``), ``x0 + v0 t``."""
+    starts (``t < 0``), ``x0``."""
     if t < 0.0:
-        return x0 + v0 * t
+        return x0
     y = 2.0 * ln2 / halflife
     if y * t > 700.0:  # long settled: exp would underflow, which libm handles slowly (errno); under 1e-300 of x0
         return 0.0

@@ -73,11 +73,11 @@ _LN2 = float(np.log(2.0))
 
 def _spring(x0: np.ndarray, v0: np.ndarray, t: np.ndarray, halflife: np.ndarray | float) -> np.ndarray:
     """Critically damped decay of an offset ``x0`` with velocity ``v0`` after ``t`` seconds; before it starts (``t < 0``),
-    ``x0 + v0 t``, the offset at rest until then (a re-placed foot's step travels once it has lifted,
-    ``graph.planted``)."""
+    ``x0``: a re-placed foot's step travels once it has lifted (``graph.planted``), and until then the planter keeps
+    ``x0`` where it holds the foot still (:meth:`FootPlanter.targets_reference`)."""
     y = 2.0 * _LN2 / halflife
     after = np.maximum(t, 0.0)
-    return np.where(t < 0.0, x0 + v0 * t, (x0 + (v0 + y * x0) * after) * np.exp(-y * after))
+    return np.where(t < 0.0, x0, (x0 + (v0 + y * x0) * after) * np.exp(-y * after))
 
 
 _HALFLIVES = np.array([SWING_HALFLIFE, LIFT_HALFLIFE, SWING_HALFLIFE])
