@@ -114,17 +114,19 @@ def test_walk_and_run_blends_carry_the_arms_on_within_their_verbs_speeds(graphs)
 
 
 def test_the_offset_moves_only_the_arms_and_is_gone_after_its_time(graphs):
-    """The legs, hips, trunk and head are the cosine blend's exactly (the feet's timing is the blend's); the arms
-    differ only until ``ARMS_BLEND`` after the last blend took their offset, then show the verbs' own pose again."""
+    """Between cycles the legs, hips, trunk and head are the cosine blend's exactly (the feet's timing is the blend's);
+    the arms differ only until ``ARMS_BLEND`` after the last blend took their offset, then show the verbs' own pose
+    again. (A start carries the whole upper body, ``Graph.carried``: the arms first, then the trunk above the hips,
+    the neck and head.)"""
     graph = graphs["cmu"]
     up = graph.arms
-    assert [graph.skeleton.names[j] for j in up] == [
-        "lclavicle", "lhumerus", "lradius", "lhand", "rclavicle", "rhumerus", "rradius", "rhand",
-    ]  # fmt: skip
+    names = graph.skeleton.names
+    assert [names[j] for j in up] == ["lclavicle", "lhumerus", "lradius", "lhand", "rclavicle", "rhumerus", "rradius", "rhand"]
+    assert [names[j] for j in graph.carried] == [*(names[j] for j in up), "thorax", "head"]
     bandai = graphs["bandai"].skeleton.names
-    assert [bandai[j] for j in graphs["bandai"].arms] == [
-        "Shoulder_L", "UpperArm_L", "LowerArm_L", "Hand_L", "Shoulder_R", "UpperArm_R", "LowerArm_R", "Hand_R",
-    ]  # fmt: skip
+    arms = [bandai[j] for j in graphs["bandai"].arms]
+    assert arms == ["Shoulder_L", "UpperArm_L", "LowerArm_L", "Hand_L", "Shoulder_R", "UpperArm_R", "LowerArm_R", "Hand_R"]
+    assert [bandai[j] for j in graphs["bandai"].carried] == [*arms, "Spine", "Chest", "Neck", "Head"]
     rest = np.setdiff1d(np.arange(graph.skeleton.num_joints), up)
     rot, _, _, took, _ = _drive(graph, PLAN, 11.0)
     cosine = _cosine(graph)

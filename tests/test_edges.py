@@ -483,6 +483,55 @@ def test_a_stop_asked_for_a_gesture_lands_its_feet_first(bandai, gesture):
         assert bandai.verb_index(gesture) in perf.verb[int((3.0 + delay) * FPS) :], f"no {gesture} after the stop"
 
 
+@pytest.mark.parametrize("seed", [316, 615])
+def test_a_start_carries_the_upper_body_on_at_its_verbs_pace(bandai, seed):
+    """A start (a stand into a walk) blends over 0.1-0.3 s, as its feet agree; a happy stand holds its chest and head
+    where the walk's first steps do not, and the blend turned them at 1.5-1.7x the verbs' own fastest trunk joint (the
+    head at 2.0 rad/s against the walk's 1.26; five of 150 random scripts of ``benchmarks/edges.py``, these two
+    among them), an arm at 1.57x in another. A start now plays the walk's upper body (``Graph.carried``) at once and
+    carries the stand's difference on past the blend (``player._arms``, as a walk ↔ run carries the arms), the legs
+    keeping the blend's timing: the trunk at 0.95-1.04x, the arms at 0.76-0.91x. The seeds' scripts tuned nothing."""
+    cues, adverbs = gesture_script(seed)
+    perf = perform(bandai, cues, seconds=8.0, seed=seed, adverbs=adverbs, start="idle")
+    speed = np.concatenate([np.zeros((1, bandai.skeleton.num_joints)), _angular_speed(perf.planted.rotations)])
+    own = {}
+    for verb, after in (("idle", 2), ("walk", 30)):
+        alone = perform(bandai, [], seconds=6.0, seed=seed, start=verb, adverbs=adverbs, stay=True).planted.rotations
+        own[verb] = _angular_speed(alone)[after:]
+    starts = _windows(perf, bandai, {("idle", "walk")})
+    assert starts and starts[0][2] <= 5, f"the script should start walking at once: {starts}"
+    failures = []
+    for part in ("trunk", "arms"):
+        joints = _parts(bandai)[part]
+        bound = 1.5 * max(own["idle"][:, joints].max(), own["walk"][:, joints].max())
+        for _, _, a, b in starts:
+            fastest = speed[a:b, joints].max()  # the steps into frames a to b - 1
+            if fastest > bound:
+                failures.append(f"{part} at {a / FPS:.2f} s: {fastest:.2f} rad/s, 1.5x its verbs' own {bound:.2f}")
+    assert not failures, "\n".join(failures)
+
+
+@pytest.mark.parametrize("seed", [21, 27, 43])
+def test_a_stop_soon_after_a_start_carries_the_upper_body_on(bandai, seed):
+    """A stop (or a walk into a run) carries the arms alone; begun while a start's offset of the whole upper body is
+    still alive (its ``ARMS_BLEND``), it carries the whole upper body on again from the pose shown. A version that
+    carried the arms alone there dropped the trunk's offset in a frame: the trunk at 3-6x its verbs' own as the stop
+    began (at these seeds 4.9x, 5.2x and 6.2x; 2-5.6x in 53 of 150 random scripts of ``benchmarks/edges.py``)."""
+    rng = np.random.default_rng(seed)
+    adverbs = {"valence": float(rng.uniform(-0.6, 0.6)), "energy": float(rng.uniform(-0.4, 0.4))}
+    cues = [Cue(0.3, "walk"), Cue(float(rng.uniform(0.8, 1.3)), "idle")]
+    perf = perform(bandai, cues, seconds=4.0, seed=seed, adverbs=adverbs, start="idle")
+    start, stop = _windows(perf, bandai, {("idle", "walk"), ("walk", "idle")})[:2]
+    assert start[:2] == ("idle", "walk") and stop[:2] == ("walk", "idle") and stop[2] - start[2] < 1.2 * FPS, (start, stop)
+    trunk = _parts(bandai)["trunk"]
+    own = 0.0
+    for v in {int(v) for v in perf.verb if v >= 0}:
+        alone = perform(bandai, [], seconds=6.0, seed=seed, start=bandai.verb_names[v], adverbs=adverbs, stay=True)
+        own = max(own, _angular_speed(alone.planted.rotations)[30 if bandai.verbs[v].cyclic else 2 :, trunk].max())
+    speed = _angular_speed(perf.planted.rotations)[:, trunk].max(axis=1)
+    assert speed.max() <= 1.5 * own, f"the trunk at {speed.max():.2f} rad/s at {(np.argmax(speed) + 1) / FPS:.2f} s, its verbs' own {own:.2f}"
+
+
 @pytest.mark.parametrize("seed", [43, 44, 49])
 def test_a_stop_turned_back_into_the_walk_at_once_keeps_the_arms_on(bandai, seed):
     """A walk cue the frame after a stop began turns the stop back, and the turned-back blend is over within that

@@ -27,11 +27,12 @@ and a generic time ``g`` in it — or is in a transition from one instance (A) t
   offset, half-life at least ``INTERRUPT_HALFLIFE``) and the new path starts from B — at once, and
   inertially, when B is a one-shot verb whose way on is already open. A stop (a cycle blending into a
   one-shot) is not cut short: the new path starts from B once the stop has put its feet down.
-* **Arms past a short blend.** A cosine blend from one cycle into another (a walk into a run, over the quarter
-  cycle their feet agree on) shorter than ``ARMS_BLEND`` plays the arms (``Graph.arms``) of B at once, the pose
-  shown's difference from them fading to nothing ``ARMS_BLEND`` on (:func:`_arms`): the legs keep the blend's
-  timing, and a forearm bent 80° more in the run no longer turns at 3.3x its verbs' own. A stop (a cycle into a
-  one-shot) carries the arms the same way over its own blend.
+* **The upper body past a short blend.** A cosine blend into a cycle (a walk into a run, over the quarter cycle
+  their feet agree on; a stand into a walk) shorter than ``ARMS_BLEND`` plays the upper body (``Graph.carried``: the
+  trunk above the hips, the head, the arms) of B at once, the pose shown's difference from them fading to nothing
+  ``ARMS_BLEND`` on (:func:`_arms`): the legs keep the blend's timing, a forearm bent 80° more in the run no longer
+  turns at 3.3x its verbs' own, and a start's chest and head no longer turn at 1.5-1.7x. A stop (a cycle into a
+  one-shot) carries the upper body the same way over its own blend.
 * **Feet.** In a cosine blend a foot is held where both verbs hold it, where A does and still has the weight,
   or where B does and A has begun to land it (:func:`hold_phases`). Blending two stances would slide a held
   foot, so the body is carried by the held feet's slip instead (:func:`_keep_feet`). :class:`GraphFeet` re-places a foot a
@@ -330,8 +331,8 @@ def _step(state: GraphState, dt: float) -> Frame:
 
 
 def _arms(state: GraphState, rot: np.ndarray, rot_b: np.ndarray | None, rebased: np.ndarray, dt: float) -> None:
-    """The arms carried past a short blend from one cycle into another (over ``ARMS_BLEND``) and through a stop
-    (over its blend), onto the rotations ``rot (C, J, 4)`` in place; ``rot_b``: B's own (None without B);
+    """The upper body (``Graph.carried``; the state's ``arms_*``, named for them) carried past a short blend into a
+    cycle (over ``ARMS_BLEND``) and through a stop (over its blend), onto the rotations ``rot (C, J, 4)`` in place; ``rot_b``: B's own (None without B);
     ``rebased``: the creatures whose whole pose took an offset this frame (it carries the arms' on: theirs ends).
 
     Where the blend starts (and where it is turned back), the difference between the pose shown a frame ago and B's
@@ -343,7 +344,7 @@ def _arms(state: GraphState, rot: np.ndarray, rot_b: np.ndarray | None, rebased:
     0.8-1.0x. Through a stop the arms no longer swing on with the walk's weight while drawn to the stand's: a stop's
     upper arm turned at 1.63x the walk's own, now 1.26x.
     """
-    up = state.graph.arms
+    carried, arms = state.graph.carried, len(state.graph.arms)
     state.arms_since += dt
     state.arms_since[rebased] = np.inf
     take = np.flatnonzero(state.arms_take & (state.active >= 0))
@@ -354,8 +355,9 @@ def _arms(state: GraphState, rot: np.ndarray, rot_b: np.ndarray | None, rebased:
     alone = np.flatnonzero(state.arms_take & (state.active < 0) & (state.arms_since < state.arms_length))
     state.arms_take[:] = False
     for rows, slot in ((take, 1), (alone, 0)):
-        if not (len(rows) and state.shown is not None and len(up)):
+        if not (len(rows) and state.shown is not None and len(carried)):
             continue
+        up = carried  # all of it taken (shown below: the arms alone, unless it carries the whole upper body)
         # B (A, alone) a frame ago, by its clock (player._back), and now.
         g_a, g_b = _back(state, rows, dt)
         verbs, g, now = (state.into, g_b, rot_b) if slot else (state.verb, g_a, rot)
@@ -369,15 +371,19 @@ def _arms(state: GraphState, rot: np.ndarray, rot_b: np.ndarray | None, rebased:
         state.arms_since[rows] = dt
         state.arms_of[rows] = state.active[rows]
     live = np.flatnonzero(state.arms_since < state.arms_length)
-    if len(live) == 0:
-        return
-    own = live[(state.active[live] >= 0) & (state.active[live] == state.arms_of[live])]  # in the blend that took it
-    if len(own):
-        rot[own[:, None], up] = rot_b[own[:, None], up]
-    t = state.arms_since[live, None, None]
-    u = t / state.arms_length[live, None, None]
-    o = (0.5 * np.cos(np.pi * u) + 0.5) * state.arms_rot[live] + state.arms_vel[live] * t * (1.0 - u) ** 3
-    rot[live[:, None], up] = quat.mul(quat.exp(o), rot[live[:, None], up])
+    for upper in (False, True):  # the arms alone, or the whole upper body (a start)
+        rows = live[state.arms_upper[live] == upper]
+        if len(rows) == 0:
+            continue
+        n = len(carried) if upper else arms
+        up = carried[:n]
+        own = rows[(state.active[rows] >= 0) & (state.active[rows] == state.arms_of[rows])]  # in the blend that took it
+        if len(own):
+            rot[own[:, None], up] = rot_b[own[:, None], up]
+        t = state.arms_since[rows, None, None]
+        u = t / state.arms_length[rows, None, None]
+        o = (0.5 * np.cos(np.pi * u) + 0.5) * state.arms_rot[rows, :n] + state.arms_vel[rows, :n] * t * (1.0 - u) ** 3
+        rot[rows[:, None], up] = quat.mul(quat.exp(o), rot[rows[:, None], up])
 
 
 def first_frame(state: GraphState) -> Frame:

@@ -22,9 +22,10 @@ from .structure import Graph
 INERTIAL_HALFLIFE = 0.2  # of a transition's duration: the half-life of an inertial offset's decay
 INTERRUPT_HALFLIFE = 0.2  # seconds: the shortest half-life of the offset an interruption leaves
 # A walk's and a run's feet agree over a quarter of their cycles, so their blends last 0.2-0.3 s; the arms, bent 80°
-# more in a run, turned at 2.5-3.9x their verbs' own fastest through them. Past a blend from one cycle into another
-# that is shorter than this, the arms (Graph.arms) play the verb entered at once and carry the pose shown's
-# difference from it on, fading over this long (player._arms). A stop carries them over its own blend.
+# more in a run, turned at 2.5-3.9x their verbs' own fastest through them. Past a blend into a cycle (from another
+# cycle, or a start from a stand) that is shorter than this, the upper body (Graph.carried: the trunk above the hips,
+# the head, the arms) plays the verb entered at once and carries the pose shown's difference from it on, fading over
+# this long (player._arms). A stop carries it over its own blend.
 ARMS_BLEND = 1.6  # seconds
 MIN_DURATION = 0.1  # seconds: no transition is shorter (but a verb's loop into itself, :data:`MIN_LOOP`)
 # A verb's loop into itself blends two instances of one verb at one phase, so a short blend pops nothing; stretched to
@@ -55,9 +56,10 @@ class GraphState:
     (−1: none), its ``beta``, ``length`` (seconds) and ``regions (C, 4)`` (A's and B's, generic time, as it
     started); ``root (C, 3)`` = (x, z, heading); ``queue`` the transitions to come; ``goal`` the verb last
     asked for until it plays (−1: none) and when it was asked; the decaying offsets of inertial blends
-    and interruptions; the arms' offset a blend from one cycle into another carries on (``arms_rot``,
-    ``arms_vel (C, U, 3)`` over ``Graph.arms``, taken ``arms_since`` seconds ago for transition ``arms_of``, to fade over
-    ``arms_length`` seconds; ``arms_take``: take it at the next frame); the last two frames shown (for the velocities
+    and interruptions; the upper body's offset a short blend into a cycle carries on (``arms_rot``,
+    ``arms_vel (C, U, 3)`` over ``Graph.carried``: the arms, and with ``arms_upper`` the rest of the upper body too;
+    taken ``arms_since`` seconds ago for transition ``arms_of``, to fade over ``arms_length`` seconds; ``arms_take``:
+    take it at the next frame); the last two frames shown (for the velocities
     an interruption carries on); ``lagging``: the body's velocity was held back by its carry limit last frame, so it
     goes on catching up with its verb's at that rate (``player._keep_feet``).
     """
@@ -92,6 +94,7 @@ class GraphState:
     arms_of: np.ndarray | None = None
     arms_take: np.ndarray | None = None
     arms_length: np.ndarray | None = None
+    arms_upper: np.ndarray | None = None
     shown: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
     shown_before: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
     inertial: np.ndarray | None = None
@@ -156,9 +159,10 @@ def new_state(
     )  # fmt: skip
     state.inertial = np.zeros(c, dtype=bool)
     state.lagging = np.zeros(c, dtype=bool)
-    state.arms_rot, state.arms_vel = np.zeros((c, len(graph.arms), 3)), np.zeros((c, len(graph.arms), 3))
+    state.arms_rot, state.arms_vel = np.zeros((c, len(graph.carried), 3)), np.zeros((c, len(graph.carried), 3))
     state.arms_since, state.arms_of = np.full(c, np.inf), np.full(c, -1, dtype=np.int64)
     state.arms_take, state.arms_length = np.zeros(c, dtype=bool), np.full(c, ARMS_BLEND)
+    state.arms_upper = np.zeros(c, dtype=bool)
     state.stay = np.array(np.broadcast_to(np.asarray(stay, dtype=bool), (c,)))
     state.head = np.full(c, -1, dtype=np.int64)
     state.head_stamp = np.zeros(c, dtype=np.int64)

@@ -221,15 +221,19 @@ class Graph:
 
     @cached_property
     def carries_arms(self) -> np.ndarray:
-        """How each transition ``(T,)`` carries the arms on (``player._arms``): 1, a cosine blend from one cycle into
-        another (a walk into a run), past the blend when it is short (:data:`adverbs.graph.state.ARMS_BLEND`); 2, a
-        cosine blend from a cycle into a one-shot (a stop), over the blend; 0, not (the arms blend as the rest)."""
+        """How each transition ``(T,)`` carries on past its blend (``player._arms``) what it plays of the verb entered
+        at once: 1, a cosine blend from one cycle into another (a walk into a run), the arms (:attr:`arms`), past the
+        blend when it is short (:data:`adverbs.graph.state.ARMS_BLEND`); 2, a cosine blend from a cycle into a one-shot
+        (a stop), the arms, over the blend; 3, a cosine blend from a one-shot into a cycle (a start), the whole upper
+        body (:attr:`carried`), past the blend when it is short; 0, nothing (all blends as the rest)."""
         cyclic = self.cyclic
-        return np.array(
-            [0 if t.source == t.target or t.blend != "cosine" or not cyclic[t.source] else 1 if cyclic[t.target] else 2
-             for t in self.transitions],
-            dtype=np.int64,
-        )  # fmt: skip
+
+        def kind(t) -> int:
+            if t.source == t.target or t.blend != "cosine" or not (cyclic[t.source] or cyclic[t.target]):
+                return 0
+            return (1 if cyclic[t.target] else 2) if cyclic[t.source] else 3
+
+        return np.array([kind(t) for t in self.transitions], dtype=np.int64)
 
     @cached_property
     def leg_chains(self):
@@ -237,11 +241,10 @@ class Graph:
         return next((v.leg_chains for v in self.verbs if v.constraints), None)
 
     @cached_property
-    def arms(self) -> np.ndarray:
-        """The joints of the arms ``(U,)``: of the upper body (every joint neither on a leg, a held foot's hip and what
-        hangs from it, nor on the way from the root to the hips), what hangs from its first joint with more than one
-        child (the chest), but for the smallest of those branches (the neck and head). None in a graph whose verbs
-        hold no feet or whose upper body does not branch."""
+    def upper_body(self) -> np.ndarray:
+        """The joints of the upper body ``(n,)``: every joint neither on a leg (a held foot's hip and what hangs from
+        it) nor on the way from the root to the hips; the trunk above the hips, the neck and head, the arms. None in a
+        graph whose verbs hold no feet."""
         chains = self.leg_chains
         if chains is None:
             return np.zeros(0, dtype=np.int64)
@@ -252,11 +255,26 @@ class Graph:
         for j in range(skeleton.num_joints):
             if j not in above and int(parents[j]) in above and j not in hips:
                 upper |= skeleton.below(j)
-        for j in np.flatnonzero(upper):
+        return np.flatnonzero(upper).astype(np.int64)
+
+    @cached_property
+    def arms(self) -> np.ndarray:
+        """The joints of the arms ``(U,)``: of the upper body (:attr:`upper_body`), what hangs from its first joint
+        with more than one child (the chest), but for the smallest of those branches (the neck and head). None in a
+        graph whose verbs hold no feet or whose upper body does not branch."""
+        skeleton = self.skeleton
+        for j in self.upper_body:
             branches = sorted((skeleton.below(i) for i in skeleton.children(int(j))), key=np.count_nonzero)
             if len(branches) > 1:
                 return np.flatnonzero(np.any(branches[1:], axis=0)).astype(np.int64)
         return np.zeros(0, dtype=np.int64)
+
+    @cached_property
+    def carried(self) -> np.ndarray:
+        """What a transition may carry on past its blend (:attr:`carries_arms`, ``player._arms``) ``(U,)``: the arms
+        (:attr:`arms`, the first ``len(arms)``), then the rest of the upper body (the trunk above the hips, the neck
+        and head)."""
+        return np.concatenate([self.arms, np.setdiff1d(self.upper_body, self.arms)]).astype(np.int64)
 
     @cached_property
     def parts(self) -> tuple[np.ndarray, ...]:
@@ -522,7 +540,8 @@ class Graph:
                     "likelihood": t.likelihood,
                     "blend": t.blend,
                     "interruptible": t.interruptible,
-                    "arms": ("", "carried past the blend when it is short", "carried over the blend")[int(carry)],
+                    "arms": ("", "carried past the blend when it is short", "carried over the blend",
+                             "and the rest of the upper body carried past the blend when it is short")[int(carry)],
                     "added": t.added,
                 }
                 for t, carry in zip(self.transitions, self.carries_arms)

@@ -4,7 +4,8 @@
 path, which stays the reference) for every creature at once, with no Python per creature: clocks (a verb alone
 by its own, a transition by ``β``; a transition starting or finishing where the region says) → the verbs
 sampled (one, or two in a blend) → root velocities blended → root advanced → poses decoded and blended → the
-decaying offsets of inertial blends and interruptions → the arms carried past a short blend → hold phases → the body carried by the held feet → the
+decaying offsets of inertial blends and interruptions → the arms (a start: the upper body) carried past a short
+blend → hold phases → the body carried by the held feet → the
 feet planted (the planter's own kernel, :func:`adverbs.feet._planting_kernel.step`) → feet to re-place.
 
 Each piece calls the same compiled arithmetic the reference path calls (the sampling query, the decode, the
@@ -48,10 +49,11 @@ Arguments come in tuples (``frame.FramePass`` lays them out once):
   offsets) and their root velocities through their cycle (``Verb.root_velocity_samples`` ``(E, S, 3)``: flat,
   offsets).
 * ``transitions``: ``regions (T, 4)`` (source start and end, target start and end), ``target (T,)``,
-  ``inertial (T,)``, ``between (T,)`` (from one verb to another), ``arms (T,)`` (how it carries the arms on:
+  ``inertial (T,)``, ``between (T,)`` (from one verb to another), ``arms (T,)`` (what it carries on past its blend:
   ``Graph.carries_arms``).
 * ``skeleton``: ``parents (J,)``, the graph's feet ``(L,)``, the inverse rest rotation above the body root ``(4,)``,
-  the body root, the arms' joints ``(U,)`` (``Graph.arms``).
+  the body root, the joints a blend may carry on ``(U,)`` (``Graph.carried``: the arms first), the parts the paced
+  blends read, the feet's ancestors, the stance joints, and how many of the carried joints are the arms.
 * ``caches = (tables, offsets)``: each creature's ``weights``, ``keytimes``, ``seam``, ``goal``, hold times and
   carry limit (``Verb.carry_limit``) of every verb, one ``(C, Σ)`` table per kind and slot (slot 0 the verb playing,
   1 the one being entered: ``tables = (W0, W1, K0, K1, S0, S1, G0, G1, H0, H1, L0, L1)``), verb ``v``'s columns
@@ -355,10 +357,11 @@ def _start(c, late, k, hbox, buf, hb):  # pragma: no cover - compiled
     if inertial[c]:  # B at once, the pose shown decaying onto it
         rebase[c] = True
         halflife[c] = max(k_[_INERTIAL] * length[c], 0.0)
-    elif transitions[4][k] == 1 and length[c] < k_[_ARMS]:  # the arms: B at once, the pose shown's difference
-        state[25][c], state[26][c] = True, k_[_ARMS]  # carried on (queue._start)
-    elif transitions[4][k] == 2:  # a stop: the same, over the blend
-        state[25][c], state[26][c] = True, length[c]
+    elif transitions[4][k] == 2 or ((transitions[4][k] == 1 or transitions[4][k] == 3) and length[c] < k_[_ARMS]):
+        # the arms (a start: the upper body; again while a start's offset of it is alive) carried on (queue._start)
+        alive = state[28][c] and state[23][c] < state[26][c]
+        state[28][c] = transitions[4][k] == 3 or alive
+        state[25][c], state[26][c] = True, length[c] if transitions[4][k] == 2 else k_[_ARMS]
 
 
 @njit(cache=True, _nrt=False)
@@ -698,7 +701,7 @@ def _creature(c, dt, flags, turns, hbox, buf, hb):  # pragma: no cover
     if live:
         decay_row(offset_since[c], offset_halflife[c], offset_rot[c], offset_rot_vel[c], offset_trans[c],
                   offset_trans_vel[c], rot[c], trans[c], k_[_LN2])  # fmt: skip
-    # The arms carried past a short blend from one cycle into another (player._arms): their offset taken
+    # The arms (a start: the upper body) carried past a short blend into a cycle (player._arms): their offset taken
     # where asked, ended where the whole pose took one, and shown while it lasts (rot_b: B's rotations now).
     arms_since, arms_take = state[23], state[25]
     arms_since[c] += dt
@@ -711,11 +714,12 @@ def _creature(c, dt, flags, turns, hbox, buf, hb):  # pragma: no cover
             _arms_take(c, dt, has_before, x0, z0, h0, hbox, arms, shown_rot, before_rot, e_b,
                        rot_b if active[c] >= 0 else rot[c], rot0, trans0, r1, r2, blend)  # fmt: skip
     if arms_since[c] < state[26][c]:
+        n = arms.shape[0] if state[28][c] else skeleton[8]  # the whole upper body, or the arms alone
         if active[c] >= 0 and active[c] == state[24][c]:  # in the blend that took it: the arms play B
-            for i in range(arms.shape[0]):
+            for i in range(n):
                 for a in range(4):
                     rot[c, arms[i], a] = rot_b[arms[i], a]
-        _arms_show(arms_since[c], state[26][c], state[21][c], state[22][c], arms, rot[c])
+        _arms_show(arms_since[c], state[26][c], state[21][c], state[22][c], arms, n, rot[c])
     # Hold phases: A's, B's, or in a cosine blend A's while it has the weight, then both's (player.hold_phases).
     is_moving = active[c] >= 0
     inert = is_moving and inertial[c]
@@ -812,12 +816,13 @@ def _arms_take(c, dt, has_before, x0, z0, h0, hbox, arms, shown_rot, before_rot,
 
 
 @njit(cache=True, inline="always")
-def _arms_show(t, length, arms_rot, arms_vel, arms, rot):  # pragma: no cover - compiled
+def _arms_show(t, length, arms_rot, arms_vel, arms, n, rot):  # pragma: no cover - compiled
     """``player._arms``'s offset ``t`` seconds on (of ``length``; ``arms_rot``, ``arms_vel (U, 3)``), before the
-    arms' rotations in ``rot (J, 4)``: ``o(t) = w(t / T) x₀ + v₀ t (1 − t / T)³``."""
+    rotations of the first ``n`` carried joints ``arms (U,)`` in ``rot (J, 4)``: ``o(t) = w(t / T) x₀ + v₀ t
+    (1 − t / T)³``."""
     u = t / length
     w, tail = 0.5 * math.cos(np.pi * u) + 0.5, t * (1.0 - u) ** 3
-    for i in range(arms.shape[0]):
+    for i in range(n):
         j = arms[i]
         ex, ey, ez, ew = _exp(w * arms_rot[i, 0] + tail * arms_vel[i, 0], w * arms_rot[i, 1] + tail * arms_vel[i, 1],
                               w * arms_rot[i, 2] + tail * arms_vel[i, 2])  # fmt: skip

@@ -129,9 +129,10 @@ def tables(graph: Graph) -> Tables:
     skeleton = (
         np.asarray(graph.skeleton.parents, dtype=np.int64), np.ascontiguousarray(graph.feet_array, dtype=np.int64),
         np.ascontiguousarray(graph.inverse_above_body, dtype=float), int(vs[0].encoding.body_root),
-        np.ascontiguousarray(graph.arms, dtype=np.int64), np.ascontiguousarray(graph.paced_joints, dtype=np.int64),
+        np.ascontiguousarray(graph.carried, dtype=np.int64), np.ascontiguousarray(graph.paced_joints, dtype=np.int64),
         graph.feet_path,  # what keep_feet_row's FK runs through
         np.array(stance_joints(graph.skeleton) or [vs[0].encoding.body_root], dtype=np.int64),  # tables.body_place
+        len(graph.arms),  # the first of the carried joints: the arms (Graph.carried)
     )  # fmt: skip
     out = Tables(verbs, transitions, max(v.num_dofs for v in vs), skeleton)
     _TABLES[graph] = out
@@ -363,7 +364,7 @@ class FramePass:
             state.time, state.inertial, state.rebase, state.offset_rot, state.offset_rot_vel, state.offset_trans,
             state.offset_trans_vel, state.offset_root, state.offset_since, state.offset_halflife, state.moving,
             state.root, state.held_before, state.arms_rot, state.arms_vel, state.arms_since, state.arms_of,
-            state.arms_take, state.arms_length, state.lagging,
+            state.arms_take, state.arms_length, state.lagging, state.arms_upper,
         )  # fmt: skip
         key = (state.head, *arrays)
         if self._box_key is not None and all(map(operator.is_, key, self._box_key)):
