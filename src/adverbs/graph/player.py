@@ -370,6 +370,13 @@ def _arms(state: GraphState, rot: np.ndarray, rot_b: np.ndarray | None, rebased:
             state.arms_vel[rows] = (_relative(shown, state.shown_before[0][rows][:, up]) - _relative(now[rows][:, up], then)) / dt
         state.arms_since[rows] = dt
         state.arms_of[rows] = state.active[rows]
+        # The whole pose's offset still decaying (a cut-short blend, an interruption) is in the pose shown, so in this
+        # one: on the joints it shows (the arms, or the whole upper body) it is handed to it (kept there, it came back in one frame as the blend that took
+        # this ended and the verb entered played alone, a hand at 19.6 rad/s).
+        for upper in (False, True):
+            shows = rows[state.arms_upper[rows] == upper]
+            state.offset_rot[shows[:, None], carried[: len(carried) if upper else arms]] = 0.0
+            state.offset_rot_vel[shows[:, None], carried[: len(carried) if upper else arms]] = 0.0
     live = np.flatnonzero(state.arms_since < state.arms_length)
     for upper in (False, True):  # the arms alone, or the whole upper body (a start)
         rows = live[state.arms_upper[live] == upper]

@@ -789,7 +789,7 @@ def _arms_take(c, dt, has_before, x0, z0, h0, hbox, arms, shown_rot, before_rot,
     """``player._arms``'s taking of creature ``c``'s arms' offset (a frame now and then: not inlined), from the pose
     shown and B a frame ago (decoded into ``rot0``) and now (``rot_b``); A's, playing alone, where no blend is under
     way (one turned back and over within the frame)."""
-    verbs, _, _, caches, state, _, _, _ = _held(hbox)
+    verbs, _, skeleton, caches, state, _, _, _ = _held(hbox)
     verb, g, into, g_into, active = state[:5]
     arms_rot, arms_vel, arms_since, arms_of = state[21], state[22], state[23], state[24]
     # B (A, alone) a frame ago, by its clock (player._back).
@@ -813,6 +813,11 @@ def _arms_take(c, dt, has_before, x0, z0, h0, hbox, arms, shown_rot, before_rot,
                 arms_vel[c, i, a] = (r1[a] - r2[a]) / dt
     arms_since[c] = dt
     arms_of[c] = active[c]
+    n = arms.shape[0] if state[28][c] else skeleton[8]  # the whole pose's offset on the joints it shows: handed to it
+    for i in range(n):  # (player._arms)
+        for a in range(3):
+            state[11][c, arms[i], a] = 0.0
+            state[12][c, arms[i], a] = 0.0
 
 
 @njit(cache=True, inline="always")
