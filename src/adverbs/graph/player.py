@@ -332,8 +332,9 @@ def _step(state: GraphState, dt: float) -> Frame:
 
 def _arms(state: GraphState, rot: np.ndarray, rot_b: np.ndarray | None, rebased: np.ndarray, dt: float) -> None:
     """The upper body (``Graph.carried``; the state's ``arms_*``, named for them) carried past a short blend into a
-    cycle (over ``ARMS_BLEND``) and through a stop (over its blend), onto the rotations ``rot (C, J, 4)`` in place; ``rot_b``: B's own (None without B);
-    ``rebased``: the creatures whose whole pose took an offset this frame (it carries the arms' on: theirs ends).
+    cycle (over ``ARMS_BLEND``) and through a stop (over its blend), onto the rotations ``rot (C, J, 4)`` in place;
+    ``rot_b``: B's own (None without B); ``rebased``: the creatures whose whole pose took an offset this frame (it
+    carries the arms' on: theirs ends).
 
     Where the blend starts (and where it is turned back), the difference between the pose shown a frame ago and B's
     then is taken (``x₀``, rotation vectors of the arms' joints) with the difference of their velocities since
@@ -371,8 +372,8 @@ def _arms(state: GraphState, rot: np.ndarray, rot_b: np.ndarray | None, rebased:
         state.arms_since[rows] = dt
         state.arms_of[rows] = state.active[rows]
         # The whole pose's offset still decaying (a cut-short blend, an interruption) is in the pose shown, so in this
-        # one: on the joints it shows (the arms, or the whole upper body) it is handed to it (kept there, it came back in one frame as the blend that took
-        # this ended and the verb entered played alone, a hand at 19.6 rad/s).
+        # one: on the joints it shows (the arms, or the whole upper body) it is handed to it (kept there, it came back
+        # in one frame as the blend that took this ended and the verb entered played alone, a hand at 19.6 rad/s).
         for upper in (False, True):
             shows = rows[state.arms_upper[rows] == upper]
             state.offset_rot[shows[:, None], carried[: len(carried) if upper else arms]] = 0.0
