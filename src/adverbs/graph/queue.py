@@ -166,13 +166,13 @@ def _start(state: GraphState, c: int, late: float, inertial: bool = False) -> No
     if state.inertial[c]:  # B at once, the pose shown decaying onto it
         state.rebase[c] = True
         state.offset_halflife[c] = max(INERTIAL_HALFLIFE * state.length[c], INTERRUPT_HALFLIFE if inertial else 0.0)
-    elif graph.carries_arms[k] in (1, 2, 3) and (graph.carries_arms[k] == 2 or state.length[c] < ARMS_BLEND):
+    elif (kind := graph.carries_arms[k]) == 2 or (kind in (1, 3) and state.length[c] < ARMS_BLEND):
         # The arms (a start: the upper body) play B at once, the pose shown's difference carried on (player._arms),
         # past the blend (a stop: over it); the whole upper body again while a start's offset of it is alive (were it
         # dropped, the trunk would snap back to the blend's in a frame).
         alive = state.arms_upper[c] and state.arms_since[c] < state.arms_length[c]
-        state.arms_upper[c] = graph.carries_arms[k] == 3 or alive
-        state.arms_take[c], state.arms_length[c] = True, state.length[c] if graph.carries_arms[k] == 2 else ARMS_BLEND
+        state.arms_upper[c] = kind == 3 or alive
+        state.arms_take[c], state.arms_length[c] = True, state.length[c] if kind == 2 else ARMS_BLEND
 
 
 def _finish(state: GraphState, c: int) -> None:
